@@ -1,0 +1,32 @@
+"""jaxroll: differentiable viscoelastic rolling resistance of rigid spheres and cylinders on
+viscoelastic layers of finite thickness.
+
+Importing jaxroll enables JAX's float64 mode (see ``jaxroll._numerics``).
+"""
+
+from . import _numerics  # noqa: F401  (enables float64 first)
+
+# --- material (G*(omega)) ---------------------------------------------------------------
+from .material import (
+    Arrhenius,
+    AtTemperature,
+    GeneralizedMaxwell,
+    StandardLinearSolid,
+    WLF,
+    at_temperature,
+    complex_modulus,
+    glassy_modulus,
+    loss_modulus,
+    relaxation_modulus,
+    relaxed_modulus,
+    shift_factor,
+    storage_modulus,
+    tan_delta,
+)
+
+# --- layer transfer (T(q)) ----------------------------------------------------------------
+from .layer import Layer, shear_wave_speed, surface_compliance
+
+# --- special functions, pressure, direct series, contact, references (added per module) ---
+
+__version__ = "0.1.0"

@@ -1,0 +1,77 @@
+"""Shared numerical plumbing: float64 policy, input coercion and safe elementary functions.
+
+float64 policy
+--------------
+``import jaxroll`` enables JAX's 64-bit mode (``jax_enable_x64``) process-wide, because every
+physics function here needs float64 (layer compliances span 1e-20..1e-3 m/Pa, the contact
+solvers need 1e-10 residuals). Public functions coerce their inputs with :func:`as_float`,
+which raises if 64-bit mode has been switched off again afterwards, so a float32 input is
+promoted, never computed in float32 silently.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+jax.config.update("jax_enable_x64", True)
+
+__all__ = ["as_float", "check_x64", "sinh_minus_x_scaled", "to_complex", "where_safe"]
+
+
+def check_x64() -> None:
+    """Raise if JAX's 64-bit mode is off (it is switched on by ``import jaxroll``)."""
+    if not jax.config.read("jax_enable_x64"):
+        raise RuntimeError(
+            "jaxroll needs float64: JAX's 64-bit mode was disabled after importing jaxroll. "
+            "Re-enable it with jax.config.update('jax_enable_x64', True)."
+        )
+
+
+def as_float(x) -> jax.Array:
+    """Return ``x`` as a float64 JAX array (complex inputs become complex128).
+
+    Integer and float32 inputs are promoted, so no public function ever computes in float32.
+    """
+    check_x64()
+    x = jnp.asarray(x)
+    if jnp.issubdtype(x.dtype, jnp.complexfloating):
+        return x.astype(jnp.complex128)
+    return x.astype(jnp.float64)
+
+
+def where_safe(cond, x, safe):
+    """Replace ``x`` by ``safe`` where ``cond`` is False (first half of a "double where").
+
+    Use it on the *input* of a function that is singular outside ``cond``, then select its
+    output with ``jnp.where(cond, f(x_safe), other)``: the gradient of the branch not taken is
+    then finite instead of NaN.
+    """
+    return jnp.where(cond, x, safe)
+
+
+def sinh_minus_x_scaled(x):
+    """``exp(-x) * (sinh(x) - x)`` for real or complex ``x`` with ``Re x >= 0``, without
+    cancellation near 0 or overflow for large ``x``.
+
+    Series ``sum_{k>=1} x^(2k+1)/(2k+1)!`` for ``|x| < 1`` (12 terms, error < 1e-17 relative),
+    the closed form ``(1 - e^{-2x})/2 - x e^{-x}`` otherwise.
+    """
+    small = jnp.abs(x) < 1.0
+    xs = where_safe(small, x, 0.5)
+    x2 = xs * xs
+    term = xs * x2 / 6.0
+    total = term
+    for k in range(2, 13):
+        term = term * x2 / ((2 * k) * (2 * k + 1))
+        total = total + term
+    series = jnp.exp(-xs) * total
+    xl = where_safe(small, 1.0, x)
+    large = -0.5 * jnp.expm1(-2.0 * xl) - xl * jnp.exp(-xl)
+    return jnp.where(small, series, large)
+
+
+def to_complex(x) -> jax.Array:
+    """Real -> complex128, explicitly (strict dtype promotion forbids mixing float64 and
+    complex128 implicitly, and the test suite runs with it)."""
+    return jnp.asarray(x).astype(jnp.complex128)

@@ -1,0 +1,253 @@
+r"""Surface compliance of a viscoelastic layer bonded to a rigid base ([ZG] eqs. 21-25, 35).
+
+Fourier convention: a surface pressure mode ``p(x, y) = P_hat e^{i(q_x x + q_y y)}`` in the
+frame moving with the roller (which travels toward +x, ``x = X - V t``, [ZG] eq. 14) produces
+the surface displacement, positive *into* the layer, ``u = T P_hat e^{i(q_x x + q_y y)}``.
+``T`` [m/Pa] is what :func:`surface_compliance` returns. Wavenumbers in rad/m.
+
+The material sees mode ``(q_x, q_y)`` at angular frequency ``-omega_m``, ``omega_m = q_x V``,
+so the mode modulus is ``G_m = conj(G*(q_x V))`` and ``Im T > 0`` for ``q_x V > 0`` (energy is
+dissipated). *Deviation from paper*: [ZG] eq. 22 uses ``G*(omega_m)`` as printed, which gives a
+negative rolling resistance; and its ``beta_y`` (eq. 23) carries ``rho V^2 q_y^2`` where the
+inertia term is ``rho V^2 q_x^2`` (``d^2/dt^2 = V^2 d^2/dx^2`` acts on every component).
+
+Closed forms (DESIGN.md section 2), ``q = |q|``, ``a = qH``:
+
+* incompressible, with inertia, ``eps = rho V^2 q_x^2 / (G_m q^2)``, ``s = sqrt(1 - eps)``,
+  ``b = a s``::
+
+      T = eps/(G_m q) [s sinh a cosh b - cosh a sinh b] /
+          [4 s (1+s^2) + (4 s^2 + (1+s^2)^2) sinh a sinh b - s (4 + (1+s^2)^2) cosh a cosh b]
+
+  equal to the upper-left entry of ``T12 T22^{-1}`` of the 6x6 ``expm(A H)`` of [ZG] eq. 22,
+  and isotropic: the 3D ``T_mn`` depends on ``(q_x, q_y)`` only through ``q`` and ``eps``, so
+  the plane-strain ``T_m`` is the same function at ``q_y = 0``. Quasi-static limit
+  ``T = F(a)/(2 G_m q)``, ``F(y) = (sinh 2y - 2y)/(cosh 2y + 2y^2 + 1)``; ``q -> 0``:
+  ``q^2 H^3/(3 G_m)``; half-space: ``T = (1+s)/((4s + (s-1)(1+s)^2) G_m q)``.
+* compressible (``nu < 0.5``), quasi-static: ``T = (1-nu) L(a; kappa)/(G_m q)`` with ``L`` of
+  [ZG] eq. 35, ``kappa = 3 - 4 nu``; ``nu`` is frequency independent.
+
+Numerics. The printed closed form is ``0/0`` as ``eps -> 0`` (numerator and denominator vanish
+like ``s - 1`` and ``(s - 1)^2``) and overflows for large ``qH``. It is evaluated as
+
+1. ``Re b > 20``: the half-space form (the layer correction is below ``e^{-40}``);
+2. ``|a (s-1)| < 3``: an exact rearrangement in ``d = s - 1`` with the factor ``d^2`` divided
+   out analytically (``cosh b = cosh a cosh(ad) + sinh a sinh(ad)``, ...) and everything scaled
+   by ``e^{-2a}``;
+3. otherwise the printed form scaled by ``4 e^{-a-b}``.
+
+Against a 50-digit ``expm`` of eq. 22 the relative error is below ~1e-13 for ``qH`` in
+``[0, 1e4]`` and ``|eps| <= 0.9`` (tests/test_layer.py).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._numerics import as_float, to_complex as _c, where_safe
+from .material import _leaf, _require, complex_modulus, relaxed_modulus
+
+__all__ = ["Layer", "surface_compliance", "shear_wave_speed", "transfer_incompressible", "transfer_compressible"]
+
+
+class Layer(eqx.Module):
+    """A viscoelastic layer of thickness ``H`` bonded to a rigid base, frictionless surface.
+
+    Args:
+        H: thickness [m]; ``jnp.inf`` for a half-space.
+        rho: mass density [kg/m^3]; 0 neglects inertia.
+        nu: Poisson's ratio (static: selects the formulation). ``nu = 0.5`` (default) is the
+            incompressible layer of [ZG], with inertia; ``nu < 0.5`` is the compressible
+            quasi-static layer ([ZG] eq. 35), which requires ``rho = 0``.
+    """
+
+    H: jax.Array = eqx.field(converter=_leaf)
+    rho: jax.Array = eqx.field(converter=_leaf, default=0.0)
+    nu: float = eqx.field(static=True, default=0.5)
+
+    def __check_init__(self):
+        _require("H", jnp.where(jnp.isinf(self.H), 1.0, self.H) if isinstance(self.H, jax.Array) else self.H,
+                 lambda v: v > 0, "a positive thickness in m (or jnp.inf for a half-space)")
+        _require("rho", self.rho, lambda v: v >= 0, "a non-negative density in kg/m^3")
+        if not (0.0 <= float(self.nu) <= 0.5):
+            raise ValueError(f"nu must lie in [0, 0.5]; got {self.nu}")
+        if self.nu < 0.5 and isinstance(self.rho, (jax.Array, np.ndarray)) and not isinstance(
+            self.rho, jax.core.Tracer
+        ):
+            if np.any(np.asarray(self.rho) != 0):
+                raise ValueError(
+                    "compressible layers (nu < 0.5) are quasi-static in jaxroll: set rho = 0 "
+                    "(no closed form with inertia is implemented for nu < 0.5)"
+                )
+
+
+# --------------------------------------------------------------------------------------
+# elementary pieces
+
+def _sinhc_minus_one(y):
+    """``(sinh y - y)/y = sinh(y)/y - 1`` for complex ``y`` with ``|y|`` up to a few tens,
+    accurate near 0 (14-term series for ``|y| < 1``)."""
+    small = jnp.abs(y) < 1.0
+    ys = where_safe(small, y, 0.5)
+    y2 = ys * ys
+    term = y2 / 6.0
+    total = term
+    for k in range(2, 14):
+        term = term * y2 / ((2 * k) * (2 * k + 1))
+        total = total + term
+    yl = where_safe(small, 1.0, y)
+    return jnp.where(small, total, (jnp.sinh(yl) - yl) / yl)
+
+
+def _scaled_sinhc_minus_one(x):
+    """``e^{-x} (sinh x - x)/x`` for real ``x >= 0`` (any size)."""
+    small = x < 1.0
+    xs = where_safe(small, x, 0.5)
+    series = jnp.exp(-xs) * _sinhc_minus_one(xs)
+    xl = where_safe(small, 1.0, x)
+    large = (-0.5 * jnp.expm1(-2.0 * xl) - xl * jnp.exp(-xl)) / xl
+    return jnp.where(small, series, large)
+
+
+def _halfspace_factor(s):
+    """``T G_m q`` of the incompressible half-space with inertia."""
+    return (1.0 + s) / (4.0 * s + (s - 1.0) * (1.0 + s) ** 2)
+
+
+def transfer_incompressible(q, H, G, eps):
+    """Surface compliance ``T`` [m/Pa] of an incompressible layer with inertia (module doc).
+
+    Args:
+        q: wavenumber magnitude ``|q|`` [rad/m], ``>= 0``.
+        H: thickness [m] (``inf``: half-space).
+        G: mode modulus ``G_m`` [Pa], complex.
+        eps: ``rho V^2 q_x^2/(G_m q^2)`` [-], complex, ``|eps| < 1``.
+    """
+    halfspace = jnp.isinf(H)
+    Hf = where_safe(halfspace, 1.0, H)
+    a = q * Hf
+    s = jnp.sqrt(1.0 - eps)
+    d = s - 1.0
+    b = _c(a) * s
+    far = halfspace | (jnp.real(b) > 20.0)
+
+    # (1) half-space form; T(q = 0) = 0 (the rigid mode is carried by the penetration)
+    q_pos = q > 0
+    q_safe = where_safe(q_pos, q, 1.0)
+    t_half = jnp.where(q_pos, _halfspace_factor(s) / (G * _c(q_safe)), 0.0)
+
+    # finite layer: Phi = T G q / a, so T = H Phi / G (no division by q)
+    a_f = where_safe(~far, a, 1.0)
+    y = _c(a_f) * d
+    near_eps = jnp.abs(y) < 3.0
+
+    # (2) rearranged form, scaled by e^{-2a}
+    y2 = where_safe(near_eps, y, 0.0)
+    a2 = _c(a_f)
+    e1 = _c(jnp.exp(-2.0 * a_f))
+    sinhc_y = 1.0 + _sinhc_minus_one(y2)
+    sinhc_h = 1.0 + _sinhc_minus_one(0.5 * y2)
+    sd = a2 * sinhc_y                      # sinh(a d)/d
+    cd = 0.5 * a2 * a2 * sinhc_h**2        # (cosh(a d) - 1)/d^2
+    sh2 = _c(0.25 * jnp.expm1(-2.0 * a_f) ** 2)  # sinh^2 a e^{-2a}
+    chsh = _c(-0.25 * jnp.expm1(-4.0 * a_f))    # cosh a sinh a e^{-2a}
+    n1 = (
+        _c(_scaled_sinhc_minus_one(2.0 * a_f))
+        - _sinhc_minus_one(y2) * e1
+        + d * sinhc_y * sh2
+        + d * d * 0.5 * a2 * sinhc_h**2 * chsh
+    )
+    sc = sd * chsh
+    c0 = -8.0 * cd * e1 - 4.0 * sh2 - 4.0 * e1
+    c1 = -16.0 * cd * e1 - 4.0 * sc - 8.0 * sh2 - 8.0 * e1
+    c2 = -4.0 * cd * sh2 - 16.0 * cd * e1 - 8.0 * sc - 4.0 * sh2 - 5.0 * e1
+    c3 = -8.0 * cd * sh2 - 12.0 * cd * e1 - 4.0 * sc - sh2 - e1
+    c4 = -4.0 * cd * sh2 - 5.0 * cd * e1 - sc
+    c5 = -cd * sh2 - cd * e1
+    d2 = c0 + d * (c1 + d * (c2 + d * (c3 + d * (c4 + d * c5))))
+    phi_near = -(2.0 + d) * n1 / d2
+
+    # (3) printed form scaled by 4 e^{-a-b}
+    a3 = _c(where_safe(near_eps, 1.0, a_f))
+    s3 = jnp.where(near_eps, 0.5, s)
+    b3 = a3 * s3
+    e1_3 = jnp.exp(-2.0 * a3)
+    e2_3 = jnp.exp(-2.0 * b3)
+    num = s3 * (1.0 - e1_3) * (1.0 + e2_3) - (1.0 + e1_3) * (1.0 - e2_3)
+    x_ = 4.0 * s3 * s3 + (1.0 + s3 * s3) ** 2
+    y_ = s3 * (4.0 + (1.0 + s3 * s3) ** 2)
+    den = 16.0 * s3 * (1.0 + s3 * s3) * jnp.exp(-a3 - b3) + x_ * (1.0 - e1_3) * (1.0 - e2_3) - y_ * (
+        1.0 + e1_3
+    ) * (1.0 + e2_3)
+    eps3 = jnp.where(near_eps, 0.75, eps)
+    phi_far_eps = eps3 * num / den / a3
+
+    phi = jnp.where(near_eps, phi_near, phi_far_eps)
+    t_layer = _c(Hf) * phi / G
+    return jnp.where(far, t_half, t_layer)
+
+
+def transfer_compressible(q, H, G, nu):
+    """Quasi-static surface compliance ``T = (1-nu) L(qH; kappa)/(G q)`` [m/Pa] of a
+    compressible layer, [ZG] eq. 35 with ``kappa = 3 - 4 nu``; ``q -> 0``:
+    ``T -> H (1-2nu)/(2(1-nu) G)`` (oedometric); half-space ``(1-nu)/(G q)``."""
+    kappa = 3.0 - 4.0 * nu
+    halfspace = jnp.isinf(H)
+    Hf = where_safe(halfspace, 1.0, H)
+    a = where_safe(halfspace, 1.0, q * Hf)
+    e1 = jnp.exp(-2.0 * a)
+    # L(a)/a scaled by e^{-2a}: [2 kappa (sinh 2a - 2a) + 4 a (kappa - 1)] / a
+    num = 4.0 * kappa * _scaled_sinhc_minus_one(2.0 * a) + 4.0 * (kappa - 1.0) * e1
+    den = kappa * (1.0 + e1 * e1) + (4.0 * a * a + kappa * kappa + 1.0) * e1
+    t_layer = _c((1.0 - nu) * Hf * (num / den)) / G
+    q_pos = q > 0
+    q_safe = where_safe(q_pos, q, 1.0)
+    t_half = jnp.where(q_pos, (1.0 - nu) / (G * _c(q_safe)), 0.0)
+    return jnp.where(halfspace, t_half, t_layer)
+
+
+def shear_wave_speed(layer: Layer, material) -> jax.Array:
+    """Shear-wave speed ``sqrt(G0/rho)`` [m/s] of the relaxed material (``inf`` if
+    ``rho = 0``). Rolling at or above it is rejected."""
+    rho = layer.rho
+    rho_pos = rho > 0
+    return jnp.where(rho_pos, jnp.sqrt(relaxed_modulus(material) / where_safe(rho_pos, rho, 1.0)), jnp.inf)
+
+
+def surface_compliance(layer: Layer, material, qx, qy, V) -> jax.Array:
+    """Surface compliance ``T(q_x, q_y)`` [m/Pa] of a layer under a steadily moving load.
+
+    ``T`` is the displacement into the layer per unit pressure of the Fourier mode
+    ``e^{i(q_x x + q_y y)}`` in the frame moving at speed ``V`` toward +x ([ZG] eqs. 24-25
+    with the corrections in the module docstring). Plane strain (cylinders): ``q_y = 0``.
+
+    Args:
+        layer: :class:`Layer`.
+        material: a material of :mod:`jaxroll.material`.
+        qx, qy: wavenumbers [rad/m] (broadcast together).
+        V: rolling speed [m/s] (broadcasts); ``|V|`` must stay below the shear-wave speed.
+
+    Returns:
+        complex ``T`` [m/Pa], shape of the broadcast inputs; ``Re T > 0``, ``Im T > 0`` for
+        ``q_x V > 0``; ``T(0, 0) = 0``.
+    """
+    qx, qy, V = as_float(qx), as_float(qy), as_float(V)
+    c_s = shear_wave_speed(layer, material)
+    V = eqx.error_if(
+        V,
+        jnp.abs(V) >= c_s,
+        "rolling speed at or above the shear-wave speed sqrt(G0/rho) of the layer: the steady "
+        "state is not defined (supersonic rolling)",
+    )
+    H = layer.H
+    G = jnp.conj(complex_modulus(material, qx * V))
+    q2 = qx * qx + qy * qy
+    q_pos = q2 > 0
+    q = jnp.where(q_pos, jnp.sqrt(where_safe(q_pos, q2, 1.0)), 0.0)
+    if layer.nu < 0.5:
+        return transfer_compressible(q, H, G, layer.nu)
+    eps = jnp.where(q_pos, _c(layer.rho * V * V * qx * qx) / (G * _c(where_safe(q_pos, q2, 1.0))), 0.0)
+    return transfer_incompressible(q, H, G, eps)

@@ -1,0 +1,253 @@
+"""Viscoelastic material models: complex shear modulus G*(omega) and its relatives.
+
+Convention ([ZG] eq. 12): harmonic time dependence ``e^{+i omega t}``, so the loss modulus
+``G'' = Im G*`` is positive for ``omega > 0``. Angular frequency ``omega`` in rad/s, moduli in
+Pa, times in s, temperatures in K.
+
+Every material is an :class:`equinox.Module` whose physical floats are pytree leaves, so
+``jax.grad(loss)(material).G0`` works, and ``jax.vmap`` over a batch of materials works.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._numerics import as_float, to_complex
+
+__all__ = [
+    "StandardLinearSolid",
+    "GeneralizedMaxwell",
+    "WLF",
+    "Arrhenius",
+    "AtTemperature",
+    "at_temperature",
+    "shift_factor",
+    "complex_modulus",
+    "storage_modulus",
+    "loss_modulus",
+    "tan_delta",
+    "relaxation_modulus",
+    "relaxed_modulus",
+    "glassy_modulus",
+]
+
+GAS_CONSTANT = 8.314462618  # J/(mol K)
+
+
+def _leaf(x):
+    """Converter for physical fields: numbers and arrays become float64 arrays; anything else
+    (``None``, sentinels used by ``jax.tree_util`` / ``vmap`` axis specs) passes through."""
+    if isinstance(x, (int, float, np.ndarray, np.generic, jax.Array, list, tuple)):
+        return as_float(x)
+    return x
+
+
+def _i_times(x):
+    """``1j * x`` for a real array ``x`` without relying on implicit float -> complex promotion
+    (which strict dtype promotion forbids)."""
+    return jax.lax.complex(jnp.zeros_like(x), x)
+
+
+def _require(name: str, value, predicate, message: str) -> None:
+    """Raise ``ValueError`` at construction for a concrete (non-traced) invalid value."""
+    if isinstance(value, jax.core.Tracer) or not isinstance(value, (jax.Array, np.ndarray)):
+        return
+    v = np.asarray(value)
+    if not np.all(np.isfinite(v)) or not np.all(predicate(v)):
+        raise ValueError(f"{name} must be {message}; got {v!r}")
+
+
+class StandardLinearSolid(eqx.Module):
+    """Standard linear solid (three-parameter Zener solid), [ZG] eq. 12.
+
+    ``G*(omega) = G0 (1 + i omega tau) / (1 + i omega tau/(1+f))``
+
+    Args:
+        G0: relaxed (static) shear modulus ``G'(0)`` [Pa].
+        tau: retardation (creep) time [s]; the relaxation time is ``tau/(1+f)``.
+        f: relaxation strength, ``f = G'(inf)/G'(0) - 1`` [-] (so the glassy modulus is
+            ``G0 (1+f)``).
+
+    Deviation from paper: [ZG]'s text states ``f = G'(0)/G'(inf) - 1``; its eq. 12 implies
+    ``f = G'(inf)/G'(0) - 1``, which is what is implemented.
+    """
+
+    G0: jax.Array = eqx.field(converter=_leaf)
+    tau: jax.Array = eqx.field(converter=_leaf)
+    f: jax.Array = eqx.field(converter=_leaf)
+
+    def __check_init__(self):
+        _require("G0", self.G0, lambda v: v > 0, "a positive shear modulus in Pa")
+        _require("tau", self.tau, lambda v: v > 0, "a positive time in s")
+        _require("f", self.f, lambda v: v >= 0, "non-negative")
+
+    def to_prony(self) -> "GeneralizedMaxwell":
+        """The equivalent one-term Prony series: ``G_inf = G0``, ``G_1 = G0 f``,
+        ``tau_1 = tau/(1+f)``."""
+        return GeneralizedMaxwell(
+            G_inf=self.G0,
+            G=jnp.atleast_1d(self.G0 * self.f),
+            tau=jnp.atleast_1d(self.tau / (1.0 + self.f)),
+        )
+
+    def _complex_modulus(self, omega):
+        iwt = _i_times(omega * self.tau)
+        return to_complex(self.G0) * (1.0 + iwt) / (1.0 + iwt / to_complex(1.0 + self.f))
+
+    def _relaxation_modulus(self, t):
+        return self.G0 * (1.0 + self.f * jnp.exp(-t * (1.0 + self.f) / self.tau))
+
+    def _relaxed(self):
+        return self.G0
+
+    def _glassy(self):
+        return self.G0 * (1.0 + self.f)
+
+
+class GeneralizedMaxwell(eqx.Module):
+    """Generalized Maxwell solid (Prony series).
+
+    ``G*(omega) = G_inf + sum_i G_i (i omega tau_i) / (1 + i omega tau_i)``,
+    ``G(t) = G_inf + sum_i G_i exp(-t/tau_i)``.
+
+    Args:
+        G_inf: long-term (relaxed) shear modulus [Pa].
+        G: Prony moduli ``G_i`` [Pa], shape ``(n,)``.
+        tau: relaxation times ``tau_i`` [s], shape ``(n,)``.
+    """
+
+    G_inf: jax.Array = eqx.field(converter=_leaf)
+    G: jax.Array = eqx.field(converter=_leaf)
+    tau: jax.Array = eqx.field(converter=_leaf)
+
+    def __check_init__(self):
+        _require("G_inf", self.G_inf, lambda v: v > 0, "a positive shear modulus in Pa")
+        _require("G", self.G, lambda v: v >= 0, "non-negative moduli in Pa")
+        _require("tau", self.tau, lambda v: v > 0, "positive times in s")
+        if hasattr(self.G, "shape") and hasattr(self.tau, "shape") and self.G.shape != self.tau.shape:
+            raise ValueError(f"G and tau must have the same shape; got {self.G.shape} and {self.tau.shape}")
+
+    def _complex_modulus(self, omega):
+        omega = jnp.asarray(omega)[..., None]
+        iwt = _i_times(omega * self.tau)
+        return to_complex(self.G_inf) + jnp.sum(to_complex(self.G) * iwt / (1.0 + iwt), axis=-1)
+
+    def _relaxation_modulus(self, t):
+        t = jnp.asarray(t)[..., None]
+        return self.G_inf + jnp.sum(self.G * jnp.exp(-t / self.tau), axis=-1)
+
+    def _relaxed(self):
+        return self.G_inf
+
+    def _glassy(self):
+        return self.G_inf + jnp.sum(self.G, axis=-1)
+
+
+class WLF(eqx.Module):
+    """Williams-Landel-Ferry shift: ``log10 a_T = -C1 (T - T_ref) / (C2 + T - T_ref)``.
+
+    Args:
+        C1: [-]. C2: [K]. T_ref: reference temperature [K].
+    """
+
+    C1: jax.Array = eqx.field(converter=_leaf)
+    C2: jax.Array = eqx.field(converter=_leaf)
+    T_ref: jax.Array = eqx.field(converter=_leaf)
+
+    def _log_shift(self, T):
+        dT = T - self.T_ref
+        denom = self.C2 + dT
+        denom = eqx.error_if(
+            denom, denom <= 0, "WLF shift undefined: C2 + T - T_ref <= 0 (temperature too far below T_ref)"
+        )
+        return -self.C1 * dT / denom * jnp.log(10.0)
+
+
+class Arrhenius(eqx.Module):
+    """Arrhenius shift: ``ln a_T = (E_a / R_gas) (1/T - 1/T_ref)``.
+
+    Args:
+        activation_energy: ``E_a`` [J/mol]. T_ref: reference temperature [K].
+    """
+
+    activation_energy: jax.Array = eqx.field(converter=_leaf)
+    T_ref: jax.Array = eqx.field(converter=_leaf)
+
+    def _log_shift(self, T):
+        return self.activation_energy / GAS_CONSTANT * (1.0 / T - 1.0 / self.T_ref)
+
+
+def shift_factor(shift: WLF | Arrhenius, T) -> jax.Array:
+    """Time-temperature shift factor ``a_T`` at temperature ``T`` [K] (``a_T(T_ref) = 1``).
+
+    The material at temperature ``T`` behaves as the reference material at ``omega a_T``.
+    """
+    T = as_float(T)
+    T = eqx.error_if(T, T <= 0, "temperature must be positive, in kelvin")
+    return jnp.exp(shift._log_shift(T))
+
+
+class AtTemperature(eqx.Module):
+    """A material evaluated at temperature ``T`` through time-temperature superposition:
+    ``G*(omega; T) = G*_ref(omega a_T)`` and ``G(t; T) = G_ref(t / a_T)``."""
+
+    material: eqx.Module
+    shift: eqx.Module
+    T: jax.Array = eqx.field(converter=_leaf)
+
+    def _complex_modulus(self, omega):
+        return self.material._complex_modulus(omega * shift_factor(self.shift, self.T))
+
+    def _relaxation_modulus(self, t):
+        return self.material._relaxation_modulus(t / shift_factor(self.shift, self.T))
+
+    def _relaxed(self):
+        return self.material._relaxed()
+
+    def _glassy(self):
+        return self.material._glassy()
+
+
+def at_temperature(material, shift: WLF | Arrhenius, T) -> AtTemperature:
+    """``material`` (characterised at ``shift.T_ref``) evaluated at temperature ``T`` [K]."""
+    return AtTemperature(material, shift, T)
+
+
+def complex_modulus(material, omega) -> jax.Array:
+    """Complex shear modulus ``G*(omega) = G' + i G''`` [Pa] at angular frequency ``omega``
+    [rad/s] (any shape; ``e^{+i omega t}`` convention, [ZG] eq. 12)."""
+    return material._complex_modulus(as_float(omega))
+
+
+def storage_modulus(material, omega) -> jax.Array:
+    """Storage modulus ``G'(omega)`` [Pa]."""
+    return jnp.real(complex_modulus(material, omega))
+
+
+def loss_modulus(material, omega) -> jax.Array:
+    """Loss modulus ``G''(omega)`` [Pa] (positive for ``omega > 0``)."""
+    return jnp.imag(complex_modulus(material, omega))
+
+
+def tan_delta(material, omega) -> jax.Array:
+    """Loss factor ``tan delta = G''/G'`` [-]."""
+    g = complex_modulus(material, omega)
+    return jnp.imag(g) / jnp.real(g)
+
+
+def relaxation_modulus(material, t) -> jax.Array:
+    """Shear relaxation modulus ``G(t)`` [Pa] at time ``t`` [s] (closed form for every model)."""
+    return material._relaxation_modulus(as_float(t))
+
+
+def relaxed_modulus(material) -> jax.Array:
+    """Relaxed (static, long-term) shear modulus ``G'(0)`` [Pa]."""
+    return material._relaxed()
+
+
+def glassy_modulus(material) -> jax.Array:
+    """Glassy (instantaneous) shear modulus ``G'(inf)`` [Pa]."""
+    return material._glassy()

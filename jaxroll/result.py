@@ -1,0 +1,45 @@
+"""The result object returned by :func:`jaxroll.rolling_resistance` for every method."""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+
+__all__ = ["RollingResult", "REGIMES"]
+
+#: Integer codes of ``RollingResult.regime`` (an array, so it survives jit/vmap).
+REGIMES = {0: "thick", 1: "thin", 2: "thin-compressible", 3: "elastic", 4: "full"}
+
+
+class RollingResult(eqx.Module):
+    """Rolling resistance and diagnostics.
+
+    Attributes:
+        value: rolling resistance R_r, positive, opposing motion [N for a sphere, N/m for a
+            cylinder].
+        contact_radius: contact radius (sphere) or half-width (cylinder) of the pressure model
+            or of the solved contact [m].
+        gamma: ``contact_radius / H`` [-] (0 for a half-space).
+        regime: integer code of the pressure model / method, see :data:`REGIMES`.
+        valid: True where the inputs lie inside the method's range of validity.
+        truncation: estimated relative truncation / discretisation error of ``value`` [-].
+        penetration: rigid-body penetration [m] (full models; else None).
+        pressure: contact pressure on the grid [Pa] (full models; else None).
+        grid: coordinates of the pressure grid [m] (full models; else None).
+        status: solver status code, 0 = converged (full models; else None).
+        iterations: solver iterations (full models; else None).
+        residual: final solver residual (full models; else None).
+    """
+
+    value: jax.Array
+    contact_radius: jax.Array
+    gamma: jax.Array
+    regime: jax.Array
+    valid: jax.Array
+    truncation: jax.Array
+    penetration: jax.Array | None = None
+    pressure: jax.Array | None = None
+    grid: jax.Array | tuple | None = None
+    status: jax.Array | None = None
+    iterations: jax.Array | None = None
+    residual: jax.Array | None = None

@@ -1,0 +1,77 @@
+"""High-precision oracles shared by tests (mpmath): the 6x6 transfer matrices of [ZG] eq. 22
+(incompressible, with inertia, beta_y typo fixed) and of the compressible quasi-static layer.
+Independent of the library's closed forms: T = e1^T T12 T22^{-1} e1 with T(z) = expm(A H)."""
+
+import mpmath as mp
+
+
+def _t_from_expm(A, H, dps):
+    with mp.workdps(dps):
+        E = mp.expm(A * H)
+        T12 = mp.matrix(3, 3)
+        T22 = mp.matrix(3, 3)
+        for i in range(3):
+            for j in range(3):
+                T12[i, j] = E[i, 3 + j]
+                T22[i, j] = E[3 + i, 3 + j]
+        M = T12 * mp.inverse(T22)
+        return complex(M[0, 0])
+
+
+def _dps_for(q, H):
+    # expm(A H) has entries ~e^{qH}; T12 T22^{-1} loses ~0.87 qH digits.
+    return int(40 + 0.87 * q * H)
+
+
+def transfer_expm_incompressible(qx, qy, H, G, rho, V):
+    """[ZG] eqs. 21-25 with beta_y = (qx^2 + 4 qy^2) G - rho V^2 qx^2 (typo fixed).
+    ``G`` is the mode modulus G_m (complex) used as is."""
+    dps = _dps_for((qx * qx + qy * qy) ** 0.5, H)
+    with mp.workdps(dps):
+        vx, vy, H, rho, V = (mp.mpf(x) for x in (qx, qy, H, rho, V))
+        G = mp.mpc(G.real, G.imag)
+        bx = (4 * vx**2 + vy**2) * G - rho * V**2 * vx**2
+        by = (vx**2 + 4 * vy**2) * G - rho * V**2 * vx**2
+        bxy = 3 * vx * vy * G
+        i = mp.mpc(0, 1)
+        A = mp.matrix(
+            [
+                [0, -i * vx, -i * vy, 0, 0, 0],
+                [-i * vx, 0, 0, 0, 1 / G, 0],
+                [-i * vy, 0, 0, 0, 0, 1 / G],
+                [-rho * V**2 * vx**2, 0, 0, 0, -i * vx, -i * vy],
+                [0, bx, bxy, -i * vx, 0, 0],
+                [0, bxy, by, -i * vy, 0, 0],
+            ]
+        )
+        return _t_from_expm(A, H, dps)
+
+
+def transfer_expm_compressible(qx, qy, H, G, nu):
+    """Quasi-static compressible layer bonded to a rigid base; state (w, u, v, s_zz, t_xz, t_yz)
+    with z up from the base, derived from Navier's equations (Lame lambda, mu = G)."""
+    dps = _dps_for((qx * qx + qy * qy) ** 0.5, H)
+    with mp.workdps(dps):
+        kx, ky, H, nu = (mp.mpf(x) for x in (qx, qy, H, nu))
+        G = mp.mpc(G.real, G.imag)
+        lam = 2 * G * nu / (1 - 2 * nu)
+        i = mp.mpc(0, 1)
+        m = lam + 2 * G
+        # w' = (s - i lam (kx u + ky v))/m ; u' = t_x/G - i kx w ; v' = t_y/G - i ky w
+        # s' = -i kx t_x - i ky t_y
+        # t_x' = lam kx (kx u + ky v) - i kx lam w' + 2G kx^2 u + G ky^2 u + G kx ky v  (and sym.)
+        wp = [0, -i * lam * kx / m, -i * lam * ky / m, 1 / m, 0, 0]
+        A = mp.matrix(6, 6)
+        for j in range(6):
+            A[0, j] = wp[j]
+        A[1, 0], A[1, 4] = -i * kx, 1 / G
+        A[2, 0], A[2, 5] = -i * ky, 1 / G
+        A[3, 4], A[3, 5] = -i * kx, -i * ky
+        row4 = [0, lam * kx * kx + 2 * G * kx * kx + G * ky * ky, lam * kx * ky + G * kx * ky, 0, 0, 0]
+        row5 = [0, lam * kx * ky + G * kx * ky, lam * ky * ky + 2 * G * ky * ky + G * kx * kx, 0, 0, 0]
+        for j in range(6):
+            row4[j] += -i * kx * lam * wp[j]
+            row5[j] += -i * ky * lam * wp[j]
+            A[4, j] = row4[j]
+            A[5, j] = row5[j]
+        return _t_from_expm(A, H, dps)
