@@ -1,0 +1,577 @@
+"""Material identification from measured rolling resistance and/or DMA data.
+
+Weighted least squares in log-parameters (positivity built in), solved by optimistix
+Levenberg-Marquardt (default) or optax L-BFGS, with multi-start, optional bounds and
+Gauss-Newton uncertainty (covariance, standard errors, 95 % intervals, correlations).
+
+Residuals, stacked over the data sets supplied:
+
+* rolling resistance: ``(R_model - R_meas)/sigma`` with ``R_model`` from
+  :func:`jaxroll.rolling_resistance` (any method; the per-point model is vmapped);
+  ``sigma`` defaults to ``|R_meas|`` (relative residuals);
+* DMA: ``(G'_model - G'_meas)/sigma'`` and ``(G''_model - G''_meas)/sigma''`` at each frequency
+  (and temperature, through a WLF/Arrhenius shift), relative by default.
+
+Uncertainty: ``cov(log p) = s^2 (J^T J)^{-1}`` with ``J`` the Jacobian of the residuals with
+respect to the log-parameters at the optimum, ``s^2 = chi^2/(n - k)`` unless
+``absolute_sigma=True`` (``s = 1``); ``stderr(p) = p sqrt(cov_ii)`` (delta method) and the 95 %
+interval ``exp(log p +- 1.96 sqrt(cov_ii))`` (asymmetric, positive).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import warnings
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._numerics import as_float
+from .material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
+
+__all__ = [
+    "DMAData",
+    "RollingData",
+    "FitResult",
+    "IdentifiabilityWarning",
+    "fit_material",
+    "read_dma_csv",
+    "read_rolling_csv",
+]
+
+Z95 = 1.959963984540054
+
+
+class IdentifiabilityWarning(UserWarning):
+    """The data do not constrain a parameter (large relative error or near-total correlation)."""
+
+
+# ----------------------------------------------------------------------------------------
+# data
+
+
+@dataclasses.dataclass(frozen=True)
+class RollingData:
+    """Rolling-resistance measurements, SI: speed [m/s], load [N or N/m], value [N or N/m],
+    optional sigma (same unit as value)."""
+
+    speed: np.ndarray
+    load: np.ndarray
+    value: np.ndarray
+    sigma: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = len(self.speed)
+        for name in ("load", "value"):
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"RollingData: {name} has {len(getattr(self, name))} entries, speed has {n}")
+        _check_array("speed", self.speed, positive=True)
+        _check_array("load", self.load, positive=True)
+        _check_array("rolling resistance", self.value, positive=True)
+        if self.sigma is not None:
+            _check_array("sigma", self.sigma, positive=True)
+
+
+@dataclasses.dataclass(frozen=True)
+class DMAData:
+    """Dynamic mechanical analysis data, SI: angular frequency omega [rad/s], storage and loss
+    shear moduli [Pa], optional temperature [K] (then a shift is needed to fit)."""
+
+    omega: np.ndarray
+    storage: np.ndarray
+    loss: np.ndarray
+    temperature: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = len(self.omega)
+        for name in ("storage", "loss"):
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"DMAData: {name} has {len(getattr(self, name))} entries, omega has {n}")
+        _check_array("frequency", self.omega, positive=True)
+        _check_array("storage modulus", self.storage, positive=True)
+        _check_array("loss modulus", self.loss, positive=True)
+        if self.temperature is not None:
+            _check_array("temperature", self.temperature, positive=True)
+
+
+def _check_array(name, x, positive):
+    x = np.asarray(x, dtype=float)
+    bad = ~np.isfinite(x) | ((x <= 0) if positive else False)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ValueError(f"{name}: entry {i} is {x[i]!r}; values must be finite" + (" and positive" if positive else ""))
+
+
+_UNITS = {
+    "speed": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
+    "load": {"N": 1.0, "kN": 1e3, "N/m": 1.0, "kN/m": 1e3},
+    "rolling_resistance": {"N": 1.0, "mN": 1e-3, "N/m": 1.0, "mN/m": 1e-3},
+    "sigma": {"N": 1.0, "mN": 1e-3, "N/m": 1.0, "mN/m": 1e-3},
+    "frequency": {"Hz": 2 * math.pi, "rad/s": 1.0},
+    "storage_modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9},
+    "loss_modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9},
+    "temperature": {"K": None, "degC": None, "C": None, "°C": None},
+}
+_POSITIVE = {"speed", "load", "rolling_resistance", "sigma", "frequency", "storage_modulus", "loss_modulus"}
+
+
+def _read_table(path, required, optional, kind):
+    """Read a CSV with a header row of names and a row of units (the common DMA convention).
+    Returns {column: SI numpy array}. Errors name the file line."""
+    path = Path(path)
+    with open(path, newline="") as fh:
+        rows = [(i + 1, r) for i, r in enumerate(csv.reader(fh)) if any(c.strip() for c in r)]
+    if len(rows) < 3:
+        raise ValueError(f"{path}: a {kind} CSV needs a header row of names, a row of units and data rows")
+    (hline, header), (uline, units) = rows[0], rows[1]
+    header = [h.strip() for h in header]
+    units = [u.strip() for u in units]
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise ValueError(f"{path}, line {hline}: missing column(s) {missing}; the header has {header}")
+    if len(units) != len(header):
+        raise ValueError(f"{path}, line {uline}: the units row has {len(units)} entries for {len(header)} columns")
+    out = {}
+    for col in required + [c for c in optional if c in header]:
+        j = header.index(col)
+        unit = units[j]
+        allowed = _UNITS[col]
+        if unit not in allowed:
+            try:
+                float(unit)
+                hint = " (is the units row missing?)"
+            except ValueError:
+                hint = ""
+            raise ValueError(
+                f"{path}, line {uline}: unit {unit!r} of column {col!r} not understood{hint}; expected one of {sorted(allowed)}"
+            )
+        vals = []
+        for line, r in rows[2:]:
+            if j >= len(r):
+                raise ValueError(f"{path}, line {line}: missing value in column {col!r}")
+            text = r[j].strip()
+            try:
+                v = float(text)
+            except ValueError:
+                raise ValueError(f"{path}, line {line}: {col} = {text!r} is not a number") from None
+            if not math.isfinite(v):
+                raise ValueError(f"{path}, line {line}: {col} is {text!r}; values must be finite")
+            if col == "temperature":
+                v = v + 273.15 if unit in ("degC", "C", "°C") else v
+                if v <= 0:
+                    raise ValueError(f"{path}, line {line}: temperature {text} {unit} is below absolute zero")
+            else:
+                if col in _POSITIVE and v <= 0:
+                    raise ValueError(f"{path}, line {line}: {col} must be positive, got {text} {unit}")
+                v = v * allowed[unit]
+            vals.append(v)
+        out[col] = np.asarray(vals)
+    return out
+
+
+def read_rolling_csv(path) -> RollingData:
+    """Read rolling-resistance data: columns ``speed``, ``load``, ``rolling_resistance``
+    (optional ``sigma``); second row units (``m/s``/``mm/s``/``km/h``; ``N``/``kN``/``N/m``;
+    ``N``/``mN``...)."""
+    t = _read_table(path, ["speed", "load", "rolling_resistance"], ["sigma"], "rolling-resistance")
+    return RollingData(t["speed"], t["load"], t["rolling_resistance"], t.get("sigma"))
+
+
+def read_dma_csv(path) -> DMAData:
+    """Read DMA data: columns ``frequency`` (``Hz`` or ``rad/s``), ``storage_modulus`` and
+    ``loss_modulus`` (``Pa``/``kPa``/``MPa``/``GPa``), optional ``temperature`` (``K`` or
+    ``degC``); second row units."""
+    t = _read_table(path, ["frequency", "storage_modulus", "loss_modulus"], ["temperature"], "DMA")
+    return DMAData(t["frequency"], t["storage_modulus"], t["loss_modulus"], t.get("temperature"))
+
+
+# ----------------------------------------------------------------------------------------
+# parameters <-> log vector
+
+
+def _get(model, name):
+    material, layer, shift = model
+    if name == "H":
+        return layer.H
+    if name in ("C1", "C2"):
+        if shift is None:
+            raise ValueError(f"free parameter {name!r} needs a WLF shift (shift=jr.WLF(...))")
+        return getattr(shift, name)
+    if not hasattr(material, name):
+        raise ValueError(f"free parameter {name!r} is not a field of {type(material).__name__}")
+    return getattr(material, name)
+
+
+def _where(model, name):
+    if name == "H":
+        return lambda m: m[1].H
+    if name in ("C1", "C2"):
+        return lambda m: getattr(m[2], name)
+    return lambda m: getattr(m[0], name)
+
+
+class _Params:
+    """Maps the free physical parameters to an unconstrained vector and back.
+
+    Unbounded: ``u = log p``. Bounded ``(lo, hi)``: ``log p = log lo + (log hi - log lo)
+    sigmoid(u)``."""
+
+    def __init__(self, model, free, bounds):
+        self.model = model
+        self.free = tuple(free)
+        self.shapes = [jnp.shape(_get(model, n)) for n in self.free]
+        self.sizes = [int(np.prod(s)) for s in self.shapes]
+        bounds = dict(bounds or {})
+        unknown = set(bounds) - set(self.free)
+        if unknown:
+            raise ValueError(f"bounds given for parameters that are not free: {sorted(unknown)}")
+        self.lo = []
+        self.hi = []
+        for n, size in zip(self.free, self.sizes):
+            lo, hi = bounds.get(n, (None, None))
+            if lo is not None and not (0 < lo < hi):
+                raise ValueError(f"bounds for {n!r} must satisfy 0 < lo < hi, got {(lo, hi)}")
+            self.lo.append(None if lo is None else math.log(lo))
+            self.hi.append(None if hi is None else math.log(hi))
+        for n in self.free:
+            v = np.asarray(_get(model, n))
+            if np.any(v <= 0):
+                raise ValueError(f"initial value of {n!r} must be positive for a log-parameter fit, got {v}")
+
+    @property
+    def size(self):
+        return sum(self.sizes)
+
+    def split(self, vec):
+        out, i = [], 0
+        for shape, size in zip(self.shapes, self.sizes):
+            out.append(jnp.reshape(vec[i : i + size], shape))
+            i += size
+        return out
+
+    def logp_from_u(self, u):
+        parts = []
+        for piece, lo, hi in zip(self.split(u), self.lo, self.hi):
+            parts.append(piece if lo is None else lo + (hi - lo) * jax.nn.sigmoid(piece))
+        return jnp.concatenate([jnp.ravel(p) for p in parts])
+
+    def u_from_logp(self, logp):
+        parts = []
+        for piece, lo, hi in zip(self.split(logp), self.lo, self.hi):
+            if lo is None:
+                parts.append(piece)
+            else:
+                t = jnp.clip((piece - lo) / (hi - lo), 1e-9, 1 - 1e-9)
+                parts.append(jnp.log(t) - jnp.log1p(-t))
+        return jnp.concatenate([jnp.ravel(p) for p in parts])
+
+    def logp0(self):
+        return jnp.concatenate([jnp.ravel(jnp.log(as_float(_get(self.model, n)))) for n in self.free])
+
+    def build(self, logp):
+        model = self.model
+        for n, piece in zip(self.free, self.split(logp)):
+            model = eqx.tree_at(_where(model, n), model, jnp.exp(piece))
+        return model
+
+    def names_flat(self):
+        out = []
+        for n, size, shape in zip(self.free, self.sizes, self.shapes):
+            out += [n] if shape == () else [f"{n}[{i}]" for i in range(size)]
+        return out
+
+
+# ----------------------------------------------------------------------------------------
+# result
+
+
+@dataclasses.dataclass(frozen=True)
+class FitResult:
+    """Outcome of :func:`fit_material`.
+
+    Attributes:
+        material, layer, shift: fitted models (same types as the initial ones).
+        params: ``{name: value}`` fitted physical values (arrays for Prony fields).
+        stderr: ``{name: standard error}`` (delta method from the log-parameter covariance).
+        ci95: ``{name: (low, high)}`` 95 % intervals (log-normal, positive).
+        covariance: covariance of the log-parameters, rows/columns in ``names`` order.
+        correlation: correlation matrix of the log-parameters.
+        names: flat parameter names (``"G[0]"``, ... for arrays).
+        converged: True if the best start converged.
+        residuals: weighted residuals at the optimum (rolling data first, then DMA).
+        cost: ``0.5 * sum(residuals**2)``.
+        reduced_chi2: ``sum(residuals**2)/(n - k)``.
+        starts: list of ``(cost, converged)`` for every start, in the order tried.
+        warnings: identifiability messages (also issued as :class:`IdentifiabilityWarning`).
+    """
+
+    material: object
+    layer: object
+    shift: object
+    params: dict
+    stderr: dict
+    ci95: dict
+    covariance: np.ndarray
+    correlation: np.ndarray
+    names: list
+    converged: bool
+    residuals: np.ndarray
+    cost: float
+    reduced_chi2: float
+    starts: list
+    warnings: list
+
+    def report(self) -> str:
+        """A plain-text fit report."""
+        lines = ["parameter        value          std. error     95 % interval"]
+        for n in self.params:
+            v, s, (lo, hi) = self.params[n], self.stderr[n], self.ci95[n]
+            for i, (vi, si, li, hi_) in enumerate(zip(np.ravel(v), np.ravel(s), np.ravel(lo), np.ravel(hi))):
+                label = n if np.ndim(v) == 0 else f"{n}[{i}]"
+                lines.append(f"{label:<16} {vi:<14.6g} {si:<14.4g} [{li:.6g}, {hi_:.6g}]")
+        lines.append(f"converged: {self.converged}; cost {self.cost:.6g}; reduced chi^2 {self.reduced_chi2:.4g}; "
+                     f"{len(self.residuals)} residuals; {sum(c for _, c in self.starts)}/{len(self.starts)} starts converged")
+        if len(self.names) > 1:
+            lines.append("correlation (log-parameters):")
+            lines.append("          " + " ".join(f"{n:>9}" for n in self.names))
+            for n, row in zip(self.names, self.correlation):
+                lines.append(f"{n:>9} " + " ".join(f"{x:9.3f}" for x in row))
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------------------
+# the fit
+
+
+def _rolling_model(rolling, radius, geometry, method, rr_options):
+    from .rolling import rolling_resistance  # the public dispatcher (all methods)
+
+    V = jnp.asarray(rolling.speed)
+    P = jnp.asarray(rolling.load)
+
+    def predict(material, layer):
+        def one(v, p):
+            return rolling_resistance(
+                material, layer, radius=radius, load=p, speed=v, geometry=geometry, method=method, **rr_options
+            ).value
+
+        return jax.vmap(one)(V, P)
+
+    return predict
+
+
+def fit_material(
+    speeds=None,
+    loads=None,
+    measured=None,
+    *,
+    initial,
+    layer=None,
+    radius=None,
+    geometry="sphere",
+    method="direct",
+    free=("G0", "tau", "f"),
+    sigma=None,
+    dma: DMAData | None = None,
+    dma_sigma=None,
+    shift=None,
+    bounds=None,
+    solver="lm",
+    n_starts=1,
+    spread_decades=2.0,
+    seed=0,
+    absolute_sigma=False,
+    max_steps=500,
+    rtol=1e-10,
+    rr_options=None,
+) -> FitResult:
+    """Identify viscoelastic parameters from rolling resistance and/or DMA data.
+
+    Args:
+        speeds, loads, measured: rolling-resistance data (SI: m/s, N or N/m, N or N/m), 1D
+            arrays of equal length, or ``None`` for a DMA-only fit.
+        initial: initial material (:class:`StandardLinearSolid` or :class:`GeneralizedMaxwell`);
+            the fitted material has the same type.
+        layer: :class:`jaxroll.Layer` (required with rolling data; ``"H"`` may be free).
+        radius: roller radius [m] (required with rolling data).
+        geometry, method, rr_options: passed to :func:`jaxroll.rolling_resistance`.
+        free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``).
+        sigma: standard deviations of ``measured`` (default: ``|measured|``, i.e. relative).
+        dma: :class:`DMAData` to fit jointly (or alone); ``dma_sigma``: ``(sigma', sigma'')``
+            arrays (default relative).
+        shift: WLF/Arrhenius shift for DMA data at several temperatures.
+        bounds: ``{name: (lo, hi)}`` physical bounds.
+        solver: ``"lm"`` (optimistix Levenberg-Marquardt) or ``"lbfgs"`` (optax).
+        n_starts: number of starts; the first is ``initial``, the others are drawn
+            log-uniformly within ``spread_decades`` decades around it (seeded by ``seed``).
+        absolute_sigma: treat ``sigma`` as absolute (covariance not rescaled by chi^2).
+
+    Returns:
+        :class:`FitResult`.
+    """
+    import optimistix as optx
+
+    if solver not in ("lm", "lbfgs"):
+        raise ValueError(f"solver must be 'lm' or 'lbfgs', got {solver!r}")
+    if not isinstance(initial, (StandardLinearSolid, GeneralizedMaxwell)):
+        raise ValueError("initial must be a StandardLinearSolid or GeneralizedMaxwell")
+    have_rr = measured is not None
+    if not have_rr and dma is None:
+        raise ValueError("nothing to fit: give rolling-resistance data (speeds, loads, measured) and/or dma")
+    rolling = None
+    if have_rr:
+        if layer is None or radius is None:
+            raise ValueError("rolling-resistance data need layer= and radius=")
+        rolling = RollingData(np.asarray(speeds, float), np.asarray(loads, float), np.asarray(measured, float),
+                              None if sigma is None else np.asarray(sigma, float))
+    if "H" in free and (layer is None or not have_rr):
+        raise ValueError("'H' can only be fitted from rolling-resistance data with a layer")
+    if dma is not None and dma.temperature is not None and shift is None:
+        raise ValueError("DMA data at several temperatures need a shift (jr.WLF or jr.Arrhenius)")
+
+    params = _Params((initial, layer, shift), free, bounds)
+
+    predict_rr = None if rolling is None else _rolling_model(rolling, radius, geometry, method, dict(rr_options or {}))
+    rr_meas = None if rolling is None else jnp.asarray(rolling.value)
+    rr_sig = None if rolling is None else jnp.asarray(rolling.value if rolling.sigma is None else rolling.sigma)
+    if dma is not None:
+        w = jnp.asarray(dma.omega)
+        gs, gl = jnp.asarray(dma.storage), jnp.asarray(dma.loss)
+        ss, sl = (gs, gl) if dma_sigma is None else (jnp.asarray(dma_sigma[0]), jnp.asarray(dma_sigma[1]))
+        temps = None if dma.temperature is None else jnp.asarray(dma.temperature)
+
+    def residuals_logp(logp):
+        material, lay, sh = params.build(logp)
+        parts = []
+        if predict_rr is not None:
+            parts.append((predict_rr(material, lay) - rr_meas) / rr_sig)
+        if dma is not None:
+            mat_t = material if temps is None else at_temperature(material, sh, temps)
+            g = complex_modulus(mat_t, w)
+            parts += [(jnp.real(g) - gs) / ss, (jnp.imag(g) - gl) / sl]
+        return jnp.concatenate(parts)
+
+    def residuals_u(u, _args=None):
+        return residuals_logp(params.logp_from_u(u))
+
+    n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
+    k = params.size
+    if n_res < k:
+        raise ValueError(f"{n_res} residuals cannot determine {k} parameters")
+
+    if solver == "lm":
+        lm = optx.LevenbergMarquardt(rtol=rtol, atol=rtol)
+
+        @jax.jit
+        def solve(u0):
+            sol = optx.least_squares(residuals_u, lm, u0, max_steps=max_steps, throw=False)
+            return sol.value, sol.result == optx.RESULTS.successful
+
+    else:
+        import optax
+
+        opt = optax.lbfgs()
+        loss = lambda u: 0.5 * jnp.sum(residuals_u(u) ** 2)  # noqa: E731
+        value_and_grad = optax.value_and_grad_from_state(loss)
+
+        @jax.jit
+        def solve(u0):
+            def step(carry):
+                u, state, i, _ = carry
+                value, grad = value_and_grad(u, state=state)
+                updates, state = opt.update(grad, state, u, value=value, grad=grad, value_fn=loss)
+                u = optax.apply_updates(u, updates)
+                return u, state, i + 1, jnp.linalg.norm(grad)
+
+            def cond(carry):
+                _, _, i, gnorm = carry
+                return (i < max_steps) & (gnorm > rtol * (1.0 + 0.0))
+
+            u, _, i, gnorm = jax.lax.while_loop(cond, step, (u0, opt.init(u0), 0, jnp.inf))
+            g = jax.grad(loss)(u)
+            return u, (i < max_steps) | (jnp.linalg.norm(g) <= 1e-6 * (1.0 + loss(u)))
+
+    rng = np.random.default_rng(seed)
+    logp0 = np.asarray(params.logp0())
+    starts = []
+    best = None
+    for i in range(max(1, int(n_starts))):
+        lp = logp0 if i == 0 else logp0 + rng.uniform(-0.5, 0.5, size=logp0.shape) * spread_decades * math.log(10)
+        u0 = params.u_from_logp(jnp.asarray(lp))
+        # optax's L-BFGS mixes int32 and int64 internally: trace it with standard promotion
+        with jax.numpy_dtype_promotion("standard"):
+            u, ok = solve(u0)
+        r = residuals_u(u)
+        cost = float(0.5 * jnp.sum(r**2))
+        ok = bool(ok) and math.isfinite(cost)
+        starts.append((cost, ok))
+        if best is None or (math.isfinite(cost) and cost < best[0]):
+            best = (cost, ok, u)
+    cost, converged, u = best
+    logp = params.logp_from_u(u)
+    r = residuals_logp(logp)
+    J = np.asarray(jax.jacfwd(residuals_logp)(logp))
+    dof = max(n_res - k, 1)
+    chi2 = float(jnp.sum(r**2))
+    s2 = 1.0 if absolute_sigma else chi2 / dof
+    JTJ = J.T @ J
+    cov = np.linalg.pinv(JTJ) * s2
+    sd_log = np.sqrt(np.clip(np.diag(cov), 0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd_log, sd_log)
+    material, lay, sh = params.build(logp)
+
+    flat_names = params.names_flat()
+    p_flat = np.exp(np.asarray(logp))
+    values, stderr, ci = {}, {}, {}
+    i = 0
+    for n, size, shape in zip(params.free, params.sizes, params.shapes):
+        sl_ = slice(i, i + size)
+        values[n] = p_flat[sl_].reshape(shape)
+        stderr[n] = (p_flat[sl_] * sd_log[sl_]).reshape(shape)
+        ci[n] = (np.exp(np.asarray(logp)[sl_] - Z95 * sd_log[sl_]).reshape(shape),
+                 np.exp(np.asarray(logp)[sl_] + Z95 * sd_log[sl_]).reshape(shape))
+        i += size
+
+    messages = []
+    sv = np.linalg.svd(J, compute_uv=False)
+    if sv[-1] <= 1e-10 * sv[0]:
+        messages.append("the Jacobian is (numerically) rank deficient: some parameter combination is not "
+                        "determined by the data")
+    for j, n in enumerate(flat_names):
+        if not np.isfinite(sd_log[j]) or sd_log[j] > 0.5:
+            hint = (" (for rolling-resistance data: include speeds around the resistance peak, V ~ contact "
+                    "radius/tau, or add DMA data)" if n in ("tau", "f") else "")
+            messages.append(f"parameter {n!r} is poorly constrained: relative standard error "
+                            f"{100 * sd_log[j]:.0f} %{hint}")
+    for a in range(len(flat_names)):
+        for b in range(a + 1, len(flat_names)):
+            if np.isfinite(corr[a, b]) and abs(corr[a, b]) > 0.995:
+                messages.append(f"parameters {flat_names[a]!r} and {flat_names[b]!r} are almost fully correlated "
+                                f"({corr[a, b]:+.4f}): the data constrain only a combination of them")
+    for m in messages:
+        warnings.warn(m, IdentifiabilityWarning, stacklevel=2)
+
+    return FitResult(
+        material=material,
+        layer=lay,
+        shift=sh,
+        params=values,
+        stderr=stderr,
+        ci95=ci,
+        covariance=cov,
+        correlation=corr,
+        names=flat_names,
+        converged=bool(converged),
+        residuals=np.asarray(r),
+        cost=float(cost),
+        reduced_chi2=chi2 / dof,
+        starts=starts,
+        warnings=messages,
+    )

@@ -1,0 +1,178 @@
+"""Material identification: recovery inside the reported intervals, honest coverage, multi-start
+agreement, identifiability warnings, CSV validation. Rolling-resistance fits use the direct
+method (tests marked with the method they need)."""
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxroll as jr
+from jaxroll.fit import DMAData, IdentifiabilityWarning, fit_material, read_dma_csv, read_rolling_csv
+
+TRUE = jr.StandardLinearSolid(G0=3e6, tau=0.25, f=1.0)
+
+
+def _dma(seed, noise=0.02, w=None, mat=TRUE):
+    w = np.logspace(-2, 3, 25) if w is None else w
+    g = np.asarray(jr.complex_modulus(mat, w))
+    rng = np.random.default_rng(seed)
+    return DMAData(w, g.real * (1 + noise * rng.standard_normal(w.size)), g.imag * (1 + noise * rng.standard_normal(w.size)))
+
+
+def _covered(fit, true):
+    return {n: bool(fit.ci95[n][0] <= getattr(true, n) <= fit.ci95[n][1]) for n in ("G0", "tau", "f")}
+
+
+def test_dma_fit_recovers_parameters_within_three_standard_errors():
+    fit = fit_material(initial=jr.StandardLinearSolid(1e6, 1.0, 0.3), dma=_dma(0))
+    assert fit.converged
+    # per-parameter false-alarm rate 0.3 % for honest errors (coverage is tested below)
+    for n in ("G0", "tau", "f"):
+        assert abs(float(fit.params[n]) - float(getattr(TRUE, n))) < 3 * float(fit.stderr[n])
+    # 2 % noise on 50 values: relative standard errors of order 1 %
+    for n in ("G0", "tau", "f"):
+        assert 1e-4 < fit.stderr[n] / fit.params[n] < 0.05
+    assert fit.reduced_chi2 == pytest.approx(0.02**2, rel=0.5)  # chi^2/dof of 2 % relative noise
+
+
+def _coverage(seeds):
+    hits = total = 0
+    for s in seeds:
+        fit = fit_material(initial=jr.StandardLinearSolid(2e6, 0.5, 0.5), dma=_dma(100 + s))
+        c = _covered(fit, TRUE)
+        hits += sum(c.values())
+        total += len(c)
+    return hits, total
+
+
+def test_interval_coverage_reduced():
+    hits, total = _coverage(range(6))
+    # 18 intervals at 95 %: P(hits <= 14) ~ 1e-3 if the intervals are honest
+    assert hits >= 15, (hits, total)
+
+
+@pytest.mark.slow
+def test_interval_coverage_full():
+    hits, total = _coverage(range(30))
+    # 90 intervals at 95 %: expected 85.5, sd 2.1; P(hits <= 79) ~ 1e-3
+    assert hits >= 80, (hits, total)
+
+
+def test_ten_starts_over_two_decades_reach_the_same_optimum():
+    fit = fit_material(initial=jr.StandardLinearSolid(3e6, 0.25, 1.0), dma=_dma(3), n_starts=10, spread_decades=2.0, seed=1)
+    costs = np.array([c for c, ok in fit.starts])
+    oks = [ok for c, ok in fit.starts]
+    assert sum(oks) == 10
+    np.testing.assert_allclose(costs, costs.min(), rtol=1e-8)
+
+
+def test_lbfgs_and_lm_reach_the_same_minimum():
+    d = _dma(4)
+    a = fit_material(initial=jr.StandardLinearSolid(1e6, 1.0, 0.3), dma=d, solver="lm")
+    b = fit_material(initial=jr.StandardLinearSolid(1e6, 1.0, 0.3), dma=d, solver="lbfgs")
+    for n in ("G0", "tau", "f"):
+        assert float(b.params[n]) == pytest.approx(float(a.params[n]), rel=1e-6)
+
+
+def test_bounds_are_respected():
+    fit = fit_material(initial=jr.StandardLinearSolid(3e6, 0.2, 1.0), dma=_dma(5), bounds={"tau": (0.01, 0.2)})
+    assert 0.01 <= float(fit.params["tau"]) <= 0.2
+    assert float(fit.params["tau"]) == pytest.approx(0.2, rel=1e-3)  # true 0.25 lies outside: pinned at the bound
+
+
+def test_unconstrained_parameters_are_flagged():
+    # only frequencies far below 1/tau: the loss peak is missing, tau and f are degenerate
+    w = np.logspace(-4, -3, 12)
+    with pytest.warns(IdentifiabilityWarning, match="poorly constrained|correlated"):
+        fit = fit_material(initial=jr.StandardLinearSolid(3e6, 0.25, 1.0), dma=_dma(6, w=w))
+    assert fit.warnings
+
+
+def test_prony_series_fits_the_same_way():
+    true = jr.GeneralizedMaxwell(G_inf=1e6, G=[2e6, 5e5], tau=[1e-2, 1.0])
+    d = _dma(7, noise=0.01, w=np.logspace(-3, 4, 40), mat=true)
+    fit = fit_material(initial=jr.GeneralizedMaxwell(G_inf=2e6, G=[1e6, 1e6], tau=[3e-2, 0.3]), dma=d,
+                       free=("G_inf", "G", "tau"))
+    assert isinstance(fit.material, jr.GeneralizedMaxwell)
+    np.testing.assert_allclose(fit.material.G, true.G, rtol=0.05)
+    np.testing.assert_allclose(fit.material.tau, true.tau, rtol=0.05)
+    assert fit.names == ["G_inf", "G[0]", "G[1]", "tau[0]", "tau[1]"]
+
+
+def test_dma_at_several_temperatures_with_free_wlf():
+    wlf = jr.WLF(C1=8.86, C2=101.6, T_ref=293.15)
+    w = np.logspace(-1, 2, 12)
+    rng = np.random.default_rng(8)
+    rows = []
+    for T in (273.15, 293.15, 313.15):
+        g = np.asarray(jr.complex_modulus(jr.at_temperature(TRUE, wlf, T), w))
+        rows.append((w, g.real * (1 + 0.01 * rng.standard_normal(w.size)), g.imag * (1 + 0.01 * rng.standard_normal(w.size)),
+                     np.full(w.size, T)))
+    d = DMAData(*[np.concatenate(c) for c in zip(*rows)])
+    fit = fit_material(initial=jr.StandardLinearSolid(2e6, 0.1, 0.5), dma=d, shift=jr.WLF(10.0, 80.0, 293.15),
+                       free=("G0", "tau", "f", "C1", "C2"))
+    assert float(fit.params["C1"]) == pytest.approx(8.86, rel=0.1)
+    assert float(fit.params["C2"]) == pytest.approx(101.6, rel=0.1)
+    assert float(fit.params["tau"]) == pytest.approx(0.25, rel=0.05)
+
+
+# ---------------------------------------------------------------------------------- CSV
+
+
+def _write(tmp_path, text, name="d.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_csv_readers_convert_units(tmp_path):
+    p = _write(tmp_path, "frequency,storage_modulus,loss_modulus,temperature\nHz,MPa,kPa,degC\n1,3,200,20\n10,4,300,20\n")
+    d = read_dma_csv(p)
+    np.testing.assert_allclose(d.omega, [2 * math.pi, 20 * math.pi])
+    np.testing.assert_allclose(d.storage, [3e6, 4e6])
+    np.testing.assert_allclose(d.loss, [2e5, 3e5])
+    np.testing.assert_allclose(d.temperature, [293.15, 293.15])
+    p = _write(tmp_path, "speed,load,rolling_resistance\nmm/s,N,mN\n100,10,5\n", "r.csv")
+    r = read_rolling_csv(p)
+    assert (r.speed[0], r.load[0], r.value[0]) == (0.1, 10.0, 0.005)
+
+
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        ("frequency,storage_modulus\nHz,MPa\n1,3\n", r"line 1: missing column\(s\) \['loss_modulus'\]"),
+        ("frequency,storage_modulus,loss_modulus\n1,3,0.2\n2,3,0.2\n", r"line 2: unit '1' of column 'frequency'.*units row missing"),
+        ("frequency,storage_modulus,loss_modulus\nHz,psi,MPa\n1,3,0.2\n", r"line 2: unit 'psi'"),
+        ("frequency,storage_modulus,loss_modulus\nHz,MPa,MPa\n1,3,0.2\n2,nan,0.2\n", r"line 4: storage_modulus is 'nan'"),
+        ("frequency,storage_modulus,loss_modulus\nHz,MPa,MPa\n1,3,0.2\n-2,3,0.2\n", r"line 4: frequency must be positive"),
+        ("frequency,storage_modulus,loss_modulus\nHz,MPa,MPa\n1,3,abc\n", r"line 3: loss_modulus = 'abc' is not a number"),
+    ],
+)
+def test_malformed_dma_csv_errors_name_the_line(tmp_path, text, match):
+    with pytest.raises(ValueError, match=match):
+        read_dma_csv(_write(tmp_path, text))
+
+
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        ("speed,load,rolling_resistance\nm/s,N,N\n0.1,10,0.01\n-0.2,10,0.01\n", r"line 4: speed must be positive"),
+        ("speed,load,rolling_resistance\nm/s,N,N\n0.1,-10,0.01\n", r"line 3: load must be positive"),
+        ("speed,rolling_resistance\nm/s,N\n0.1,0.01\n", r"missing column\(s\) \['load'\]"),
+        ("speed,load,rolling_resistance\nm/s,N,N\n0.1,10,NaN\n", r"line 3: rolling_resistance is 'NaN'"),
+    ],
+)
+def test_malformed_rolling_csv_errors_name_the_line(tmp_path, text, match):
+    with pytest.raises(ValueError, match=match):
+        read_rolling_csv(_write(tmp_path, text))
+
+
+def test_bad_fit_arguments():
+    with pytest.raises(ValueError, match="nothing to fit"):
+        fit_material(initial=TRUE)
+    with pytest.raises(ValueError, match="not a field"):
+        fit_material(initial=TRUE, dma=_dma(0), free=("G0", "eta"))
+    with pytest.raises(ValueError, match="layer= and radius="):
+        fit_material([0.1], [10.0], [0.01], initial=TRUE)
