@@ -28,5 +28,19 @@ from .material import (
 from .layer import Layer, shear_wave_speed, surface_compliance
 
 # --- special functions, pressure, direct series, contact, references (added per module) ---
+from . import reference, special  # noqa: F401  (special: importable as jaxroll.special)
+from .reference import (
+    ExactCylinder,
+    HertzSphere,
+    exact_cylinder_halfspace,
+    exact_cylinder_halfspace_dimensionless,
+    hertz_cylinder,
+    hertz_cylinder_pressure,
+    hertz_sphere,
+    persson_cylinder_halfspace,
+    persson_sphere_halfspace,
+    thin_layer_cylinder,
+    thin_layer_cylinder_pressure,
+)
 
 __version__ = "0.1.0"
