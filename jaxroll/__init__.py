@@ -42,5 +42,8 @@ from .reference import (
     thin_layer_cylinder,
     thin_layer_cylinder_pressure,
 )
+from .pressure import contact_radius, jaffar_coefficients, pressure_profile, pressure_transform
+from .direct import QuadratureSettings, direct_rolling_resistance
+from .rolling import ValidityWarning, rolling_resistance
 
 __version__ = "0.1.0"

@@ -1,0 +1,519 @@
+r"""Direct Fourier-series rolling resistance ([ZG] section 4): periodic series and aperiodic limit.
+
+With a stationary pressure ``p`` (:mod:`jaxroll.pressure`) whose transform is ``P S(q r_c)``,
+and the layer compliance ``T(q_x, q_y)`` (:func:`jaxroll.layer.surface_compliance`, displacement
+into the layer per unit pressure of the mode ``e^{i(q_x x + q_y y)}``, with the mode-modulus
+sign fix), the rolling resistance ``R_r = -int p du/dx dA`` is, by Parseval,
+
+* **periodic** (period ``Lx x Ly``; [ZG] eqs. 26, 37, 42, 47)::
+
+      R_r = (2 P^2 / (Lx Ly)) sum_{m >= 1} sum_{n = -N..N} q_x S(q r_c)^2 Im T(q_x, q_y),
+      q_x = 2 pi m / Lx,  q_y = 2 pi n / Ly,  m = 1..N,
+
+  which is eq. 26 with ``sigma_mn = P S / (Lx Ly)`` and equals eq. 37 (Hertz: ``S = 3(sin x -
+  x cos x)/x^3``, so ``2 P^2 . 2 pi . 9 . 2 = 2 pi (6P)^2 . 2``: the ``n >= 1`` terms doubled,
+  ``n = 0`` once), eq. 42 (``(96 P)^2``) and eq. 47 (``(16 P)^2``);
+* **aperiodic** (``Lx, Ly -> inf``; the sums become integrals with ``dq_x dq_y = 4 pi^2 /
+  (Lx Ly)``)::
+
+      R_r = (P^2 / (2 pi^2)) int_{q_x > 0} q_x S(q r_c)^2 Im T(q, q_x) d^2 q
+          = (P^2 / (pi^2 r_c^3)) int_0^inf x^2 S(x)^2 Phi(x / r_c) dx,
+      Phi(q) = int_0^{pi/2} cos(theta) Im T(q cos theta, q sin theta) d theta;
+
+* **cylinder** ([ZG] eq. 29, load ``P'`` per unit length, half-width ``a``)::
+
+      periodic:  R_r = (2 P'^2 / L) sum_{m=1..N} q_m S(q_m a)^2 Im T(q_m, 0)
+      aperiodic: R_r = (P'^2 / (pi a^2)) int_0^inf x S(x)^2 Im T(x/a, 0) dx.
+
+Periodic and aperiodic results are different physics at high speed: the periodic series is a
+train of rollers a period apart, and when ``V tau > ~L`` the layer does not recover between
+passes (-2 to -6 % at 1-10 m/s for L = 0.2 m, DESIGN section 2). The aperiodic value is the
+single roller on an infinite layer and is the default.
+
+Quadrature of the aperiodic integrals (all static, vectorised; ~6600 ``G*`` values and ~130
+layer closed-form values per sphere case at the default rtol 1e-4):
+
+* ``x = q r_c``: Gauss-Legendre panels in ``ln x`` (one per decade, ``n`` nodes) from
+  ``x_lo`` to ``x_hi``; the oscillating factor ``x^2 S(x)^2`` is integrated *into the weights*
+  (product integration: weights ``int l_j(ln x) x^2 S^2 dx`` are precomputed once with NumPy on
+  a fine grid; above ``x = 1e3`` with the oscillation-averaged ``S^2``), so only the smooth
+  factor ``Phi`` is sampled. Below ``x_lo``: the integrand is taken as ``x^2 Phi(x_lo)``;
+  above ``x_hi``: the envelope ``C x^{-p}`` of ``S^2`` times the local power law of ``Phi``
+  (the analytic tail).
+* angle: ``u = cos theta``, ``Phi = int_0^1 [Im T / u] u^2 / sqrt(1-u^2) du``, Gauss-Legendre
+  panels in ``ln u`` from ``u_lo`` to 1 with product weights (the ``1/sqrt`` end singularity
+  is in the weights).
+* quasi-static layers (``rho = 0``) use the exact factorisation ``T = T_1(q)/G_m(q_x V)``
+  (:func:`_im_t_fast`); layers with inertia call ``surface_compliance`` on the whole grid
+  (about 50 times slower).
+* truncation estimate: from the rules that drop the end nodes of every panel (``n - 2`` and
+  ``n - 4`` interior nodes; ``err ~ d2^2/d4``), in both directions, plus both analytic end
+  corrections. It is an order-of-magnitude indicator (tests/test_direct.py: it bounds the
+  worst error of the validation set; single cases can be under-estimated ~3x).
+* presets (:func:`settings_for_rtol`), worst measured error against a 1e-8 rule over
+  H = 30 mm, 2 mm, 10 um and V = 1e-4..1 m/s: rtol 1e-3: 8e-4; 1e-4: 7e-6; 1e-6: 5e-8.
+
+Deviations from paper: the mode modulus is ``conj(G*(q_x V))`` (inside ``surface_compliance``);
+eq. 19's cases are swapped (the nonzero case is ``m1 + m2 = 0`` and ``n1 + n2 = 0``);
+eq. 47 uses the compressible ``T``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._numerics import as_float, where_safe
+from .layer import surface_compliance, transfer_compressible, transfer_incompressible
+from .material import complex_modulus
+from .pressure import (
+    PRESSURE_MODELS,
+    THICK_MAX_GAMMA,
+    THIN_MIN_GAMMA,
+    _ENVELOPE,
+    _envelope_np,
+    _transform_np,
+    contact_radius,
+    pressure_transform,
+)
+from .result import RollingResult
+
+__all__ = ["direct_rolling_resistance", "select_pressure", "QuadratureSettings"]
+
+
+# --------------------------------------------------------------------------------------
+# product-integration weights (NumPy, cached, static)
+
+@dataclasses.dataclass(frozen=True)
+class QuadratureSettings:
+    """Static resolution of the aperiodic quadrature (see module docstring).
+
+    Attributes:
+        n: Gauss-Legendre nodes per panel in ``ln x`` (``x = q r_c``).
+        n_u: Gauss-Legendre nodes per panel in ``ln u`` (``u = cos theta``; spheres only).
+        x_lo, x_hi: range of ``x`` sampled; ``x_decades_per_panel``: panel width.
+        u_lo: smallest ``u`` sampled; ``u_decades_per_panel``: panel width.
+    """
+
+    n: int = 12
+    n_u: int = 10
+    x_lo: float = 1e-5
+    x_hi: float = 1e6
+    x_decades_per_panel: float = 1.0
+    u_lo: float = 1e-5
+    u_decades_per_panel: float = 1.0
+
+
+def settings_for_rtol(rtol: float) -> QuadratureSettings:
+    """Resolution preset reaching relative accuracy ``rtol`` (measured on the validation
+    cases of tests/test_direct.py: the worst error is 10-40 times below ``rtol``)."""
+    rtol = float(rtol)
+    if rtol >= 1e-3:
+        return QuadratureSettings(n=8, n_u=8)
+    if rtol >= 1e-4:
+        return QuadratureSettings(n=12, n_u=10)
+    if rtol >= 1e-6:
+        return QuadratureSettings(n=16, n_u=14)
+    return QuadratureSettings(n=16, n_u=16, x_decades_per_panel=0.5, u_decades_per_panel=0.5, x_lo=1e-7,
+                              x_hi=1e8, u_lo=1e-8)
+
+
+def _panels(lo, hi, decades_per_panel):
+    if lo < _X_ENVELOPE < hi:  # a panel edge at _X_ENVELOPE
+        return np.concatenate([_panels(lo, _X_ENVELOPE, decades_per_panel)[:-1],
+                               _panels(_X_ENVELOPE, hi, decades_per_panel)])
+    n_p = max(1, int(math.ceil((math.log10(hi) - math.log10(lo)) / decades_per_panel - 1e-9)))
+    return np.linspace(math.log(lo), math.log(hi), n_p + 1)
+
+
+def _lagrange_matrix(nodes, t):
+    """``L[j, k] = l_j(t_k)`` for the Lagrange basis on ``nodes``."""
+    L = np.ones((len(nodes), len(t)))
+    for j, tj in enumerate(nodes):
+        for k, tk in enumerate(nodes):
+            if k != j:
+                L[j] *= (t - tk) / (tj - tk)
+    return L
+
+
+def _product_weights(edges, n, sub_fn):
+    """Nodes (in the log variable) and product weights on Gauss-Legendre panels.
+
+    ``sub_fn(a, b)`` returns fine quadrature points ``t_k`` and weights ``w_k`` (including the
+    Jacobian and the weight function) on the panel ``[a, b]``. Returns ``(t, W)`` with ``W`` of
+    shape ``(3, n_nodes)``: the weights of the interpolant on all ``n`` nodes of each panel,
+    and of the lower-degree interpolants on its ``n - 2`` and ``n - 4`` interior nodes (for
+    the error estimate; zero weight on the dropped nodes).
+    """
+    g, _ = np.polynomial.legendre.leggauss(n)
+    nodes, W = [], []
+    for a, b in zip(edges[:-1], edges[1:]):
+        tn = 0.5 * (a + b) + 0.5 * (b - a) * g
+        tk, wk = sub_fn(a, b)
+        w3 = np.zeros((3, n))
+        for drop in range(3):
+            keep = slice(drop, n - drop)
+            w3[drop, keep] = _lagrange_matrix(tn[keep], tk) @ wk
+        nodes.append(tn)
+        W.append(w3)
+    return np.concatenate(nodes), np.concatenate(W, axis=1)
+
+
+#: Above this ``x`` the product weights use the mean of ``S^2`` over its oscillation (the
+#: neglected oscillating part contributes ~1/x of those panels, which carry < 1e-3 of R_r).
+_X_ENVELOPE = 1e3
+
+
+def _x_sub(model, geometry, power):
+    """Fine quadrature of ``x^power S(x)^2 dx`` on a panel in ``ln x`` (sub-intervals of
+    length <= 0.25 in ``x`` and <= 0.05 in ``ln x``, 16-point GL each; beyond ``_X_ENVELOPE``
+    the oscillation-averaged ``S^2`` on 64 sub-intervals in ``ln x``)."""
+    g, w = np.polynomial.legendre.leggauss(16)
+
+    def sub(a, b):
+        xa, xb = math.exp(a), math.exp(b)
+        if xa >= _X_ENVELOPE * (1 - 1e-12):
+            e = np.linspace(a, b, 65)
+            t = (0.5 * (e[:-1] + e[1:])[:, None] + 0.5 * np.diff(e)[:, None] * g).ravel()
+            wt = (0.5 * np.diff(e)[:, None] * w).ravel()
+            x = np.exp(t)
+            return t, wt * x ** (power + 1) * _envelope_np(x, model, geometry)
+        m = max(4, int(math.ceil((xb - xa) / 0.25)), int(math.ceil((b - a) / 0.05)))
+        # sub-intervals uniform in ln x below x ~ 1, uniform in x above
+        if xb <= 1.0:
+            e = np.linspace(a, b, m + 1)
+            t = (0.5 * (e[:-1] + e[1:])[:, None] + 0.5 * np.diff(e)[:, None] * g).ravel()
+            wt = (0.5 * np.diff(e)[:, None] * w).ravel()
+            x = np.exp(t)
+            return t, wt * x ** (power + 1) * _transform_np(x, model, geometry) ** 2
+        e = np.linspace(xa, xb, m + 1)
+        x = (0.5 * (e[:-1] + e[1:])[:, None] + 0.5 * np.diff(e)[:, None] * g).ravel()
+        wx = (0.5 * np.diff(e)[:, None] * w).ravel()
+        return np.log(x), wx * x**power * _transform_np(x, model, geometry) ** 2
+
+    return sub
+
+
+def _u_sub():
+    """Fine quadrature of ``u^2/sqrt(1-u^2) du = cos^2(theta) d theta`` on a panel in ``ln u``."""
+    g, w = np.polynomial.legendre.leggauss(64)
+
+    def sub(a, b):
+        th_a, th_b = math.acos(min(1.0, math.exp(b))), math.acos(math.exp(a))
+        e = np.linspace(th_a, th_b, 9)
+        th = (0.5 * (e[:-1] + e[1:])[:, None] + 0.5 * np.diff(e)[:, None] * g).ravel()
+        wt = (0.5 * np.diff(e)[:, None] * w).ravel()
+        u = np.cos(th)
+        return np.log(u), wt * u * u
+
+    return sub
+
+
+@functools.lru_cache(maxsize=None)
+def _x_rule(model, geometry, settings: QuadratureSettings):
+    power = 2 if geometry == "sphere" else 1
+    edges = _panels(settings.x_lo, settings.x_hi, settings.x_decades_per_panel)
+    t, W = _product_weights(edges, settings.n, _x_sub(model, geometry, power))
+    return np.exp(t), W
+
+
+@functools.lru_cache(maxsize=None)
+def _u_rule(settings: QuadratureSettings):
+    edges = _panels(settings.u_lo, 1.0, settings.u_decades_per_panel)
+    t, W = _product_weights(edges, settings.n_u, _u_sub())
+    # below u_lo: Im T / u taken constant, int_0^{u_lo} u^2 du = u_lo^3 / 3 (on the first node)
+    W[0, 0] += settings.u_lo**3 / 3.0
+    W[1, 1] += settings.u_lo**3 / 3.0
+    W[2, 2] += settings.u_lo**3 / 3.0
+    return np.exp(t), W
+
+
+# --------------------------------------------------------------------------------------
+# pressure-model selection
+
+def select_pressure(material, layer, radius, load, *, pressure="auto", geometry="sphere", modulus="static",
+                    speed=None):
+    """Pressure model, contact radius and validity for ``pressure`` (static string).
+
+    ``"auto"``: Jaffar's thick model where its load law has a solution (``gamma`` up to
+    ``gamma_max`` ~ 1.2 for spheres; ``gamma <= 1.2`` for cylinders), else the thin model
+    (``"thin"`` for ``nu = 0.5``, ``"thin-compressible"`` for ``nu < 0.5``). ``valid`` is True
+    for thick with ``gamma <= 0.9`` ([ZG] 4.3) and thin with ``gamma >= 10``
+    (:data:`jaxroll.pressure.THIN_MIN_GAMMA`); in between ([ZG] 4.5) no model applies.
+
+    Returns:
+        ``(models, r_c, gamma, code, valid, choice)``: the tuple of static model names involved,
+        contact radius [m], ``gamma = r_c/H``, regime code (:data:`jaxroll.result.REGIMES`),
+        validity, and ``choice`` (index into ``models``; an int array).
+    """
+    R, P = as_float(radius), as_float(load)
+    H = as_float(layer.H)
+    inf_H = jnp.isinf(H)
+    Hf = where_safe(inf_H, 1.0, H)
+    thin_name = "thin" if layer.nu >= 0.5 else "thin-compressible"
+    kw = dict(geometry=geometry, modulus=modulus, speed=speed)
+
+    def gamma_of(r):
+        return jnp.where(inf_H, 0.0, r / Hf)
+
+    if pressure == "auto":
+        r_k, exists = contact_radius(material, layer, R, P, model="thick", **kw)
+        g_k = gamma_of(r_k)
+        if geometry == "cylinder":
+            exists = exists & (g_k <= 1.2)
+        # the thin radius needs finite H; a half-space always takes the thick branch
+        layer_f = eqx.tree_at(lambda l: l.H, layer, Hf)
+        r_t, _ = contact_radius(material, layer_f, R, P, model=thin_name, **kw)
+        g_t = gamma_of(r_t)
+        use_thick = exists | inf_H
+        r_c = jnp.where(use_thick, r_k, r_t)
+        gamma = jnp.where(use_thick, g_k, g_t)
+        code = jnp.where(use_thick, PRESSURE_MODELS["thick"], PRESSURE_MODELS[thin_name])
+        valid = jnp.where(use_thick, g_k <= THICK_MAX_GAMMA, g_t >= THIN_MIN_GAMMA)
+        return ("thick", thin_name), r_c, gamma, code, valid, jnp.where(use_thick, 0, 1)
+    if pressure not in PRESSURE_MODELS:
+        raise ValueError(f"unknown pressure {pressure!r}; choose from {('auto',) + tuple(PRESSURE_MODELS)}")
+    r_c, exists = contact_radius(material, layer, R, P, model=pressure, **kw)
+    gamma = gamma_of(r_c)
+    if pressure == "thick":
+        valid = exists & (gamma <= THICK_MAX_GAMMA)
+    else:
+        valid = gamma >= THIN_MIN_GAMMA
+    code = jnp.full(jnp.shape(r_c), PRESSURE_MODELS[pressure])
+    return (pressure,), r_c, gamma, code, valid, jnp.zeros(jnp.shape(r_c), dtype=int)
+
+
+def _pick(choice, arrays):
+    """``arrays[choice]`` for a traced int ``choice`` (0-d) and a tuple of equal-shape arrays."""
+    if len(arrays) == 1:
+        return arrays[0]
+    out = arrays[0]
+    for i, a in enumerate(arrays[1:], start=1):
+        out = jnp.where(choice == i, a, out)
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# the sums / integrals (scalar inputs; vmap for batches)
+
+def _im_t(layer, material, qx, qy, V):
+    return jnp.imag(surface_compliance(layer, material, qx, qy, V))
+
+
+def _im_t_fast(layer, material, q, qx, qy, V):
+    """``Im T(q_x, q_y)`` for broadcastable ``q = |(q_x, q_y)|``, ``q_x``, ``q_y``.
+
+    Quasi-static layers (``rho = 0``; checked at run time if ``rho`` is traced) use the exact
+    factorisation ``T(q, q_x) = T_1(q) / G_m(q_x V)``, ``T_1`` the compliance at unit modulus
+    (:func:`jaxroll.layer.transfer_incompressible` / ``transfer_compressible``): the layer closed
+    form is evaluated on the shape of ``q`` only and ``G*`` on the shape of ``q_x`` only, so a
+    tensor grid costs a product of two small evaluations. Otherwise
+    :func:`jaxroll.layer.surface_compliance` on the broadcast grid.
+    """
+
+    def factorised(_):
+        one = jnp.ones((), dtype=jnp.complex128)
+        if layer.nu < 0.5:
+            t1 = jnp.real(transfer_compressible(q, layer.H, one, layer.nu))
+        else:
+            t1 = jnp.real(transfer_incompressible(q, layer.H, one, jnp.zeros((), dtype=jnp.complex128)))
+        g = complex_modulus(material, qx * V)
+        # Im(1/G_m) = Im(1/conj G*) = G''/|G*|^2 (no complex division)
+        g_re, g_im = jnp.real(g), jnp.imag(g)
+        return t1 * (g_im / (g_re * g_re + g_im * g_im))
+
+    def general(_):
+        shape = jnp.broadcast_shapes(jnp.shape(q), jnp.shape(qx), jnp.shape(qy))
+        return _im_t(layer, material, jnp.broadcast_to(qx, shape), jnp.broadcast_to(qy, shape), V)
+
+    rho = layer.rho
+    if not isinstance(rho, jax.core.Tracer):
+        return factorised(None) if bool(np.all(np.asarray(rho) == 0.0)) else general(None)
+    # traced density (e.g. a Layer built inside jit): decide at run time
+    return jax.lax.cond(jnp.all(rho == 0.0), factorised, general, None)
+
+
+def _im_t_grid(layer, material, q, u, V):
+    """``Im T(q u, q sqrt(1-u^2))`` on the tensor grid ``q[:, None]``, ``u[None, :]``."""
+    qq = q[:, None]
+    return _im_t_fast(layer, material, qq, qq * u[None, :], qq * jnp.sqrt(1.0 - u * u)[None, :], V)
+
+
+def _richardson(values):
+    """Error estimate from the values of the full rule and of the two lower-degree rules
+    (geometric convergence: ``err ~ d2^2 / d4``, capped at ``d2``)."""
+    d2 = jnp.abs(values[0] - values[1])
+    d4 = jnp.abs(values[0] - values[2])
+    ok = d4 > d2
+    return jnp.where(ok, d2 * d2 / where_safe(ok, d4, 1.0), d2)
+
+
+def _aperiodic_sphere(material, layer, V, P, r_c, models, choice, settings):
+    rules = [_x_rule(m, "sphere", settings) for m in models]
+    x = rules[0][0]
+    u, Wu = _u_rule(settings)
+    Wx = _pick(choice, tuple(jnp.asarray(r[1]) for r in rules))       # (3, Nx)
+
+    q = jnp.asarray(x) / r_c                                          # (Nx,)
+    uu = jnp.asarray(u)                                               # (Nu,)
+    h = _im_t_grid(layer, material, q, uu, V) / uu[None, :]           # Im T / u, (Nx, Nu)
+    phi3 = h @ jnp.asarray(Wu).T                                       # (Nx, 3): Phi(q_i)
+    phi = phi3[:, 0]
+
+    # analytic ends in x
+    Cp = _pick(choice, tuple(jnp.asarray(_ENVELOPE[("sphere", m)]) for m in models))
+    lo = settings.x_lo**3 / 3.0 * phi[0]
+    tail = _power_tail(x[-2:], phi[-2:], Cp[0], Cp[1], 2.0, settings.x_hi)
+
+    scale = P * P / (math.pi**2 * r_c**3)
+    core_x = Wx @ phi                      # full u rule, three x rules
+    core_u = phi3.T @ Wx[0]                # full x rule, three u rules
+    value = scale * (core_x[0] + lo + tail)
+    err = scale * (_richardson(core_x) + _richardson(core_u) + jnp.abs(lo) + jnp.abs(tail))
+    return value, err
+
+
+def _power_tail(x2, g2, C, p, power, x_hi):
+    """``int_{x_hi}^inf x^power C x^{-p} g(x) dx`` with ``g`` extrapolated as a power law
+    through its last two samples (exponent clamped to [-4, 0.5])."""
+    g_pos = (g2[0] > 0) & (g2[1] > 0)
+    g0 = where_safe(g_pos, g2[0], 1.0)
+    g1 = where_safe(g_pos, g2[1], 1.0)
+    s = jnp.clip(jnp.log(g1 / g0) / math.log(x2[1] / x2[0]), -4.0, 0.5)
+    e = power - p + s + 1.0          # exponent of x in the antiderivative, < 0
+    val = C * g1 * x2[1] ** (-s) * x_hi**e / (-e)
+    return jnp.where(g_pos, val, 0.0)
+
+
+def _aperiodic_cylinder(material, layer, V, P, a, models, choice, settings):
+    rules = [_x_rule(m, "cylinder", settings) for m in models]
+    x = rules[0][0]
+    Wx = _pick(choice, tuple(jnp.asarray(r[1]) for r in rules))
+    q = jnp.asarray(x) / a
+    g = _im_t_fast(layer, material, q, q, jnp.zeros_like(q), V)
+    Cp = _pick(choice, tuple(jnp.asarray(_ENVELOPE[("cylinder", m)]) for m in models))
+    lo = settings.x_lo**2 / 2.0 * g[0]
+    tail = _power_tail(x[-2:], g[-2:], Cp[0], Cp[1], 1.0, settings.x_hi)
+    scale = P * P / (math.pi * a * a)
+    core = Wx @ g
+    value = scale * (core[0] + lo + tail)
+    err = scale * (_richardson(core) + jnp.abs(lo) + jnp.abs(tail))
+    return value, err
+
+
+def _periodic_sphere(material, layer, V, P, r_c, models, choice, Lx, Ly, N):
+    m = jnp.arange(1, N + 1, dtype=jnp.float64)
+    n = jnp.arange(0, N + 1, dtype=jnp.float64)
+    qx = (2.0 * math.pi / Lx) * m[:, None]
+    qy = (2.0 * math.pi / Ly) * n[None, :]
+    q = jnp.sqrt(qx * qx + qy * qy)
+    S = _pick(choice, tuple(pressure_transform(q * r_c, model=mod, geometry="sphere") for mod in models))
+    terms = qx * S * S * _im_t_fast(layer, material, q, qx, qy, V)
+    wn = jnp.where(n == 0, 1.0, 2.0)[None, :]            # +-n folded (T depends on |q_y|)
+    terms = terms * wn
+    scale = 2.0 * P * P / (Lx * Ly)
+    value = scale * jnp.sum(terms)
+    outer = jnp.maximum(m[:, None], n[None, :]) > 0.5 * N
+    shell = scale * jnp.sum(jnp.where(outer, terms, 0.0))
+    return value, jnp.abs(shell)
+
+
+def _periodic_cylinder(material, layer, V, P, a, models, choice, L, N):
+    m = jnp.arange(1, N + 1, dtype=jnp.float64)
+    qx = (2.0 * math.pi / L) * m
+    S = _pick(choice, tuple(pressure_transform(qx * a, model=mod, geometry="cylinder") for mod in models))
+    terms = qx * S * S * _im_t_fast(layer, material, qx, qx, jnp.zeros_like(qx), V)
+    scale = 2.0 * P * P / L
+    value = scale * jnp.sum(terms)
+    shell = scale * jnp.sum(jnp.where(m > 0.5 * N, terms, 0.0))
+    return value, jnp.abs(shell)
+
+
+# --------------------------------------------------------------------------------------
+# public
+
+def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere", pressure="auto",
+                              period=None, n_terms=None, rtol=1e-4, modulus="static",
+                              quadrature: QuadratureSettings | None = None) -> RollingResult:
+    """Rolling resistance by the direct Fourier-series method of [ZG] section 4.
+
+    Args:
+        material: a material of :mod:`jaxroll.material` (parameters are differentiable).
+        layer: :class:`jaxroll.layer.Layer` (``H`` [m], ``rho``, static ``nu``).
+        radius: roller radius ``R`` [m] (scalar).
+        load: ``P`` [N] for a sphere, ``P'`` [N/m] for a cylinder (scalar).
+        speed: rolling speed ``V`` [m/s], ``>= 0`` (scalar).
+        geometry: ``"sphere"`` or ``"cylinder"`` (static).
+        pressure: ``"auto"``, ``"thick"``, ``"thin"`` or ``"thin-compressible"`` (static; see
+            :func:`select_pressure`).
+        period: ``None`` (default): the aperiodic limit (single roller, infinite layer).
+            Otherwise the period [m]: ``(Lx, Ly)`` or a scalar (``Lx = Ly``) for spheres, a
+            scalar ``L`` for cylinders; with ``n_terms``.
+        n_terms: number of Fourier terms ``N`` per direction of the periodic series
+            (``m = 1..N``, ``n = -N..N``; [ZG] eq. 37 with N terms). Static int.
+        rtol: target relative accuracy of the aperiodic quadrature (static; selects
+            :func:`settings_for_rtol` unless ``quadrature`` is given).
+        modulus: modulus used for the contact radius (see :func:`jaxroll.pressure.contact_radius`).
+        quadrature: explicit :class:`QuadratureSettings` (static), overriding ``rtol``.
+
+    Returns:
+        :class:`jaxroll.result.RollingResult`: ``value`` [N or N/m], ``contact_radius`` [m],
+        ``gamma``, ``regime`` (pressure-model code), ``valid`` (model validity range, and
+        ``r_c`` inside the period), ``truncation`` (estimated relative error: quadrature
+        estimate for the aperiodic limit; for the periodic series the share of the outer
+        half-shell ``max(m, |n|) > N/2``, a rough measure of the terms left out).
+    """
+    if geometry not in ("sphere", "cylinder"):
+        raise ValueError(f"unknown geometry {geometry!r}; choose 'sphere' or 'cylinder'")
+    R, P, V = as_float(radius), as_float(load), as_float(speed)
+    for name, v in (("radius", R), ("load", P), ("speed", V)):
+        if jnp.ndim(v) != 0:
+            raise ValueError(f"{name} must be a scalar (use jax.vmap for batches); got shape {jnp.shape(v)}")
+    H = as_float(layer.H)
+    P = eqx.error_if(P, ~(P > 0), "load P must be positive")
+    R = eqx.error_if(R, ~(R > 0), "radius R must be positive")
+    V = eqx.error_if(V, ~(V >= 0), "speed V must be >= 0 (the roller travels toward +x)")
+    H = eqx.error_if(H, ~(H > 0), "layer thickness H must be positive (jnp.inf for a half-space)")
+    layer = eqx.tree_at(lambda l: l.H, layer, H)
+
+    models, r_c, gamma, code, valid, choice = select_pressure(
+        material, layer, R, P, pressure=pressure, geometry=geometry, modulus=modulus, speed=V
+    )
+
+    if period is None:
+        if n_terms is not None:
+            raise ValueError("n_terms needs a period (the aperiodic limit is the default)")
+        settings = quadrature if quadrature is not None else settings_for_rtol(rtol)
+        if geometry == "sphere":
+            value, err = _aperiodic_sphere(material, layer, V, P, r_c, models, choice, settings)
+        else:
+            value, err = _aperiodic_cylinder(material, layer, V, P, r_c, models, choice, settings)
+    else:
+        if n_terms is None or int(n_terms) < 1:
+            raise ValueError("a periodic series needs n_terms >= 1")
+        N = int(n_terms)
+        if geometry == "sphere":
+            Lx, Ly = (period, period) if np.ndim(period) == 0 else tuple(period)
+            Lx, Ly = as_float(Lx), as_float(Ly)
+            Lmin = jnp.minimum(Lx, Ly)
+        else:
+            if np.ndim(period) != 0:
+                raise ValueError("a cylinder's period is a scalar L [m]")
+            Lx = Lmin = as_float(period)
+        r_c = eqx.error_if(r_c, ~(2.0 * r_c < Lmin),
+                           "contact radius larger than half the period: the contact does not fit the period")
+        if geometry == "sphere":
+            value, err = _periodic_sphere(material, layer, V, P, r_c, models, choice, Lx, Ly, N)
+        else:
+            value, err = _periodic_cylinder(material, layer, V, P, r_c, models, choice, Lx, N)
+
+    pos = value > 0
+    trunc = jnp.where(pos, err / where_safe(pos, value, 1.0), jnp.where(err > 0, jnp.inf, 0.0))
+    return RollingResult(value=value, contact_radius=r_c, gamma=gamma, regime=code, valid=valid,
+                         truncation=trunc)
