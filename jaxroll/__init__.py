@@ -45,5 +45,6 @@ from .reference import (
 from .pressure import contact_radius, jaffar_coefficients, pressure_profile, pressure_transform
 from .direct import QuadratureSettings, direct_rolling_resistance
 from .rolling import ValidityWarning, rolling_resistance
+from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
 
 __version__ = "0.1.0"
