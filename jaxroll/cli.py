@@ -53,6 +53,208 @@ def _demo(args) -> int:
     return 0
 
 
+def _parse_initial(text):
+    out = {}
+    for item in text.split(","):
+        if "=" not in item:
+            raise argparse.ArgumentTypeError(f"--initial: expected NAME=VALUE pairs (G0=1e6,tau=0.1,f=0.5), got {item!r}")
+        k, v = item.split("=", 1)
+        try:
+            out[k.strip()] = float(v)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"--initial: {k.strip()} = {v!r} is not a number")
+    unknown = set(out) - {"G0", "tau", "f"}
+    if unknown:
+        raise argparse.ArgumentTypeError(f"--initial: unknown parameter(s) {sorted(unknown)}; use G0, tau, f")
+    return out
+
+
+def _fit(args) -> int:
+    import json
+
+    import jax.numpy as jnp
+
+    import jaxroll as jr
+    from jaxroll import fit as jfit
+    from jaxroll import plot
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    data = jfit.read_rolling_csv(args.data) if args.data else None
+    dma = jfit.read_dma_csv(args.dma) if args.dma else None
+    init = {"G0": 1e6, "tau": 0.1, "f": 0.5}
+    init.update(args.initial or {})
+    layer = jr.Layer(H=jnp.inf if args.H == "inf" else float(args.H), rho=args.rho, nu=args.nu)
+    free = tuple(x.strip() for x in args.free.split(",") if x.strip())
+    shift = None
+    if args.wlf:
+        try:
+            c1, c2, tref = (float(x) for x in args.wlf.split(","))
+        except ValueError:
+            raise ValueError(f"--wlf: expected three numbers C1,C2,T_ref, got {args.wlf!r}") from None
+        shift = jr.WLF(C1=c1, C2=c2, T_ref=tref)
+    kw = {}
+    if data is not None:
+        kw = dict(speeds=data.speed, loads=data.load, measured=data.value, sigma=data.sigma)
+    fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
+                            geometry=args.geometry, method=args.method, free=free, dma=dma, shift=shift, n_starts=args.starts,
+                            seed=args.seed, solver=args.solver)
+    report = fit.report()
+    (out / "fit_report.txt").write_text(report + "\n")
+    params = {
+        n: {"value": np.ravel(fit.params[n]).tolist(), "stderr": np.ravel(fit.stderr[n]).tolist(),
+            "ci95": [np.ravel(fit.ci95[n][0]).tolist(), np.ravel(fit.ci95[n][1]).tolist()]}
+        for n in fit.params
+    }
+    payload = {"parameters": params, "names": fit.names, "correlation": np.asarray(fit.correlation).tolist(),
+               "converged": fit.converged, "cost": fit.cost, "reduced_chi2": fit.reduced_chi2,
+               "warnings": fit.warnings, "units": {"G0": "Pa", "tau": "s", "f": "-", "H": "m"}}
+    (out / "fit_params.json").write_text(json.dumps(payload, indent=2) + "\n")
+    written = ["fit_report.txt", "fit_params.json"]
+    if data is not None:
+        unit = "N" if args.geometry == "sphere" else "N/m"
+        n_rr = len(data.value)
+        sig = data.value if data.sigma is None else data.sigma
+        fitted = np.asarray(data.value) - np.asarray(fit.residuals[:n_rr]) * np.asarray(sig)
+        plot.plot_fit(data.speed, data.load, data.value, fitted, unit=unit, path=out / "fit.png")
+        with open(out / "fitted.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["speed", "load", "measured", "fitted"])
+            w.writerow(["m/s", "N" if args.geometry == "sphere" else "N/m", unit, unit])
+            for row in zip(data.speed, data.load, data.value, fitted):
+                w.writerow([f"{x:.8g}" for x in row])
+        written += ["fit.png", "fitted.csv"]
+    print(report)
+    print(f"wrote {', '.join(str(out / w) for w in written)}  ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _floats(kind):
+    def parse(text):
+        try:
+            vals = [float(x) for x in text.split(",") if x.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{kind}: expected comma-separated numbers, got {text!r}")
+        if not vals:
+            raise argparse.ArgumentTypeError(f"{kind}: no values given")
+        return vals
+
+    return parse
+
+
+def _axis(text):
+    """NAME=lo:hi:n[:log] or NAME=v1,v2,... -> (name, values)."""
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(f"--vary: expected NAME=lo:hi:n[:log] or NAME=v1,v2,..., got {text!r}")
+    name, spec = text.split("=", 1)
+    name = name.strip()
+    if name not in _SWEEP_NAMES:
+        raise argparse.ArgumentTypeError(f"--vary: unknown parameter {name!r}; choose from {sorted(_SWEEP_NAMES)}")
+    try:
+        if ":" in spec:
+            parts = spec.split(":")
+            lo, hi, n = float(parts[0]), float(parts[1]), int(parts[2])
+            log = len(parts) > 3 and parts[3] == "log"
+            vals = np.logspace(np.log10(lo), np.log10(hi), n) if log else np.linspace(lo, hi, n)
+        else:
+            vals = np.array([float(x) for x in spec.split(",")])
+    except (ValueError, IndexError):
+        raise argparse.ArgumentTypeError(f"--vary: cannot parse {text!r}; use NAME=lo:hi:n[:log] or NAME=v1,v2")
+    if np.any(vals <= 0) and name != "f":
+        raise argparse.ArgumentTypeError(f"--vary: {name} must be positive")
+    return name, vals
+
+
+_SWEEP_NAMES = {"V": "speed [m/s]", "P": "load [N or N/m]", "H": "thickness [m]", "G0": "shear modulus [Pa]",
+                "tau": "retardation time [s]", "f": "relaxation strength [-]", "R": "radius [m]"}
+
+
+def _model_args(p):
+    p.add_argument("--G0", type=_positive("G0 [Pa]"), default=3e6, help="relaxed shear modulus [Pa] (3e6)")
+    p.add_argument("--tau", type=_positive("tau [s]"), default=0.25, help="retardation time [s] (0.25)")
+    p.add_argument("--f", type=float, default=1.0, help="relaxation strength G'(inf)/G'(0) - 1 [-] (1)")
+    p.add_argument("--H", default="0.03", help="layer thickness [m] or 'inf' (0.03)")
+    p.add_argument("--rho", type=float, default=1000.0, help="layer density [kg/m^3] (1000)")
+    p.add_argument("--radius", type=_positive("radius [m]"), default=0.02, help="roller radius [m] (0.02)")
+    p.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
+    p.add_argument("--method", default="direct", help="direct | full | PD | PP | SP (default direct)")
+
+
+def _thickness(text):
+    import jax.numpy as jnp
+
+    if text == "inf":
+        return jnp.inf
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"--H: expected a thickness in m or 'inf', got {text!r}") from None
+
+
+def _curve(args) -> int:
+    import jax
+    import jax.numpy as jnp
+
+    import jaxroll as jr
+    from jaxroll import plot
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    mat = jr.StandardLinearSolid(args.G0, args.tau, args.f)
+    layer = jr.Layer(H=_thickness(args.H), rho=args.rho)
+    speeds = np.logspace(np.log10(args.vmin), np.log10(args.vmax), args.n)
+    loads = np.asarray(args.loads)
+
+    def one(p):
+        return jr.rolling_resistance(mat, layer, radius=args.radius, load=p.P, speed=p.V,
+                                     geometry=args.geometry, method=args.method).value
+
+    values = np.asarray(jr.sweep(one, jr.Grid(P=loads, V=speeds), progress=args.progress))
+    unit = "N" if args.geometry == "sphere" else "N/m"
+    with open(out / "curve.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["speed", "load", "rolling_resistance"])
+        w.writerow(["m/s", "N" if args.geometry == "sphere" else "N/m", unit])
+        for i, P in enumerate(loads):
+            for j, V in enumerate(speeds):
+                w.writerow([f"{V:.8g}", f"{P:.8g}", f"{values[i, j]:.8g}"])
+    plot.plot_rolling_curves(speeds, loads, values, unit=unit,
+                             title=f"{args.geometry}, method {args.method}, H = {args.H} m", path=out / "curve.png")
+    print(f"wrote {out / 'curve.csv'}, {out / 'curve.png'}  ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _sweep_cmd(args) -> int:
+    import jax.numpy as jnp
+
+    import jaxroll as jr
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    axes = dict(args.vary)
+    base = {"V": 0.01, "P": 100.0, "H": _thickness(args.H), "G0": args.G0, "tau": args.tau, "f": args.f, "R": args.radius}
+
+    def one(p):
+        v = {k: getattr(p, k) if k in axes else base[k] for k in base}
+        return jr.rolling_resistance(jr.StandardLinearSolid(v["G0"], v["tau"], v["f"]), jr.Layer(H=v["H"], rho=args.rho),
+                                     radius=v["R"], load=v["P"], speed=v["V"], geometry=args.geometry,
+                                     method=args.method).value
+
+    values = np.asarray(jr.sweep(one, jr.Grid(**axes), progress=not args.quiet))
+    names = list(axes)
+    with open(out / "sweep.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(names + ["rolling_resistance"])
+        w.writerow([_SWEEP_NAMES[n].split("[")[1].rstrip("]") for n in names] + ["N" if args.geometry == "sphere" else "N/m"])
+        for idx in np.ndindex(values.shape):
+            w.writerow([f"{axes[n][i]:.8g}" for n, i in zip(names, idx)] + [f"{values[idx]:.8g}"])
+    print(f"{values.size} points; wrote {out / 'sweep.csv'}  ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="jaxroll",
@@ -69,11 +271,59 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--rho", type=float, default=1000.0, help="layer density [kg/m^3] (1000)")
     d.add_argument("--speed", type=_positive("speed [m/s]"), default=0.1, help="rolling speed [m/s] (0.1)")
     d.set_defaults(func=_demo)
+
+    c = sub.add_parser("curve", help="R_r against speed for one or more loads (CSV and PNG)")
+    _model_args(c)
+    c.add_argument("--loads", type=_floats("--loads"), default=[50.0, 100.0, 150.0],
+                   help="loads, comma separated [N, or N/m for cylinders] (50,100,150)")
+    c.add_argument("--vmin", type=_positive("--vmin [m/s]"), default=1e-4, help="lowest speed [m/s] (1e-4)")
+    c.add_argument("--vmax", type=_positive("--vmax [m/s]"), default=1.0, help="highest speed [m/s] (1)")
+    c.add_argument("--n", type=int, default=23, help="number of log-spaced speeds (23)")
+    c.add_argument("--progress", action="store_true", help="progress line on stderr")
+    c.add_argument("--out", default="jaxroll-curve", help="output folder (jaxroll-curve)")
+    c.set_defaults(func=_curve)
+
+    s_ = sub.add_parser("sweep", help="R_r over a grid of any parameters (V, P, H, G0, tau, f, R), CSV out",
+                        description="Each --vary NAME=lo:hi:n[:log] or NAME=v1,v2,... adds a grid axis; the other "
+                        "parameters keep their values (V = 0.01 m/s, P = 100 N unless varied).")
+    _model_args(s_)
+    s_.add_argument("--vary", type=_axis, action="append", required=True, help="grid axis, e.g. V=1e-4:1:23:log")
+    s_.add_argument("--quiet", action="store_true", help="no progress line")
+    s_.add_argument("--out", default="jaxroll-sweep", help="output folder (jaxroll-sweep)")
+    s_.set_defaults(func=_sweep_cmd)
+
+    f = sub.add_parser("fit", help="identify G0, tau, f (and optionally H) from rolling-resistance and/or DMA data",
+                       description="Fit a standard linear solid to rolling-resistance data (CSV: columns speed, load, "
+                       "rolling_resistance[, sigma]; second row units, e.g. m/s,N,N) and/or DMA data (CSV: frequency, "
+                       "storage_modulus, loss_modulus[, temperature]; units Hz|rad/s, Pa|kPa|MPa|GPa, K|degC).")
+    f.add_argument("data", nargs="?", help="rolling-resistance CSV")
+    f.add_argument("--dma", help="DMA CSV (fitted jointly)")
+    f.add_argument("--radius", type=_positive("radius [m]"), help="roller radius [m]")
+    f.add_argument("--H", default="inf", help="layer thickness [m] or 'inf' (default inf)")
+    f.add_argument("--rho", type=float, default=0.0, help="layer density [kg/m^3] (default 0: no inertia)")
+    f.add_argument("--nu", type=float, default=0.5, help="Poisson's ratio (default 0.5)")
+    f.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
+    f.add_argument("--method", default="direct", help="rolling-resistance method (default direct)")
+    f.add_argument("--free", default="G0,tau,f", help="free parameters, comma separated (G0,tau,f[,H])")
+    f.add_argument("--initial", type=_parse_initial, help="initial values, e.g. G0=1e6,tau=0.1,f=0.5 (SI)")
+    f.add_argument("--wlf", help="WLF shift C1,C2[K],T_ref[K] for DMA at several temperatures, e.g. 8.86,101.6,293.15 "
+                   "(add C1,C2 to --free to fit them)")
+    f.add_argument("--starts", type=int, default=5, help="number of starts spread over two decades (5)")
+    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--solver", choices=["lm", "lbfgs"], default="lm")
+    f.add_argument("--out", default="jaxroll-fit", help="output folder (default jaxroll-fit)")
+    f.set_defaults(func=_fit)
     return p
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command == "fit":
+        if not args.data and not args.dma:
+            parser.error("fit: give a rolling-resistance CSV and/or --dma")
+        if args.data and args.radius is None:
+            parser.error("fit: rolling-resistance data need --radius [m]")
     try:
         return args.func(args)
     except ValueError as err:  # bad physical input: one clear line, no traceback

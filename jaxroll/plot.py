@@ -11,7 +11,7 @@ import numpy as np  # noqa: E402
 from . import layer as _layer  # noqa: E402
 from . import material as _material  # noqa: E402
 
-__all__ = ["plot_master_curves", "plot_compliance"]
+__all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit"]
 
 
 def _save(fig, path):
@@ -53,5 +53,51 @@ def plot_compliance(material, layers: dict, speed, q=None, path=None):
     ax.set(xlabel="wavenumber q [rad/m]", ylabel="T [m/Pa]", title=f"surface compliance at V = {speed:g} m/s")
     ax.legend(fontsize=7)
     ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_rolling_curves(speeds, loads, values, *, unit="N", reference=None, labels=("model", "reference"),
+                        title=None, path=None):
+    """R_r against speed (log axis), one curve per load. ``values`` has shape
+    ``(len(loads), len(speeds))``; ``reference`` (same shape, optional) is drawn as markers."""
+    speeds, values = np.asarray(speeds), np.asarray(values)
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    cmap = plt.get_cmap("viridis")
+    for i, P in enumerate(np.asarray(loads)):
+        c = cmap(i / max(1, len(loads) - 1))
+        ax.semilogx(speeds, values[i], color=c, label=f"P = {P:g}" if i in (0, len(loads) - 1) else None)
+        if reference is not None:
+            ax.semilogx(speeds, np.asarray(reference)[i], "o", ms=3, color=c, mfc="none")
+    ax.set(xlabel="speed V [m/s]", ylabel=f"rolling resistance R_r [{unit}]",
+           title=title or ("lines: " + labels[0] + (f", circles: {labels[1]}" if reference is not None else "")))
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_fit(speeds, loads, measured, fitted, *, unit="N", path=None):
+    """Measured (markers) and fitted (lines) rolling resistance against speed per load, and the
+    relative residuals."""
+    speeds, loads = np.asarray(speeds), np.asarray(loads)
+    measured, fitted = np.asarray(measured), np.asarray(fitted)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    ul = np.unique(loads)
+    cmap = plt.get_cmap("viridis")
+    for i, P in enumerate(ul):
+        sel = loads == P
+        order = np.argsort(speeds[sel])
+        c = cmap(i / max(1, len(ul) - 1))
+        ax1.semilogx(speeds[sel][order], measured[sel][order], "o", ms=3, color=c, mfc="none")
+        ax1.semilogx(speeds[sel][order], fitted[sel][order], "-", color=c,
+                     label=f"P = {P:g}" if i in (0, len(ul) - 1) else None)
+        ax2.semilogx(speeds[sel][order], 100 * (measured[sel][order] / fitted[sel][order] - 1), ".", color=c)
+    ax1.set(xlabel="speed V [m/s]", ylabel=f"R_r [{unit}]", title="measured (o) and fitted (-)")
+    ax2.axhline(0, color="k", lw=0.8)
+    ax2.set(xlabel="speed V [m/s]", ylabel="residual, measured/fitted - 1 [%]", title="relative residuals")
+    for ax in (ax1, ax2):
+        ax.grid(True, which="both", alpha=0.3)
+    ax1.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
