@@ -44,6 +44,9 @@ from .reference import (
 )
 from .pressure import contact_radius, jaffar_coefficients, pressure_profile, pressure_transform
 from .direct import QuadratureSettings, direct_rolling_resistance
+from .contact import ContactSolution, periodic_kernel, solve_contact, windowed_compliance
+from . import cylinder, sphere3d  # noqa: F401  (full models: jaxroll.cylinder, jaxroll.sphere3d)
+from .cylinder import CylinderSolution, solve_cylinder
 from .rolling import ValidityWarning, rolling_resistance
 from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
 

@@ -1,0 +1,518 @@
+"""Differentiable steady-state rolling contact on a periodic viscoelastic surface.
+
+One solver for a rigid profile pressed on a periodic surface whose compliance is a (generally
+non-symmetric) convolution: the 1D line of a rolling cylinder (plane strain) and the 2D grid
+of a rolling sphere use the same code; only the grid dimension differs.
+
+Discretisation and Fourier convention
+-------------------------------------
+The period ``L_k`` of axis ``k`` is split into ``N_k`` cells of width ``dx_k = L_k/N_k``. The
+pressure is **piecewise constant** on the cells; the surface displacement ``u`` (positive into
+the layer) is **collocated at the cell centres**. A Fourier mode is ``e^{+i q.x}`` with
+``q_k = 2 pi m_k / L_k`` (``m_k`` any integer); ``T(q)`` is the layer's surface compliance
+(:func:`jaxroll.layer.surface_compliance`, displacement per unit pressure of that mode).
+
+The exact Fourier coefficient of the piecewise-constant pressure is
+``p_hat_m = (1/N) S(q_m) DFT(p)_{m mod N}`` with the load-patch factor
+``S(q) = prod_k sinc(q_k dx_k / 2)`` (``sinc z = sin z / z``), and since cell-centre separations
+are multiples of ``dx``, all modes ``m = r + l N`` (aliases) give the same phase at the cell
+centres. Hence the displacement at the centres is *exactly*
+
+    ``u = IDFT(K * DFT(p))``,  ``K_r = sum_{l in Z^d} T(q_{r + l N}) S(q_{r + l N})``   (1)
+
+with numpy's FFT normalisation. This is the periodic-image (alias) sum done in Fourier space;
+``K_0 = T(0) = 0`` (every alias of ``r = 0`` has ``S = 0``), so ``u`` has zero mean and the
+rigid-body penetration ``d`` carries the mean. In 1D the alias sum is evaluated with ``2M``
+explicit images and an analytic tail: beyond the last image ``T`` is replaced by its local
+``C/|q|`` asymptote (``C`` taken from ``T`` at the first omitted image on each side), whose
+remaining alternating series sums in closed form with the trigamma function,
+``sum_{k>=0} (-1)^k/(a+k)^2 = [psi'(a/2) - psi'((a+1)/2)]/4``. For the elastic half-space this
+makes (1) exact. For a viscoelastic layer the tail model is least accurate where ``q V tau ~ 1``
+at the image wavenumbers (low speed): measured influence-coefficient errors (relative to the
+self compliance) 1e-4 / 5e-5 / 2e-5 for ``M = 1 / 2 / 4`` at ``V tau/a0 = 1e-3``, below 1e-6 for
+``V tau/a0 >= 1``; the rolling resistance changes by < 2e-5 between ``M = 1`` and 8. In 2D the
+alias sum is truncated at ``M`` images per axis (no tail; relative error ~ 1/M^2 at the
+highest modes only; see :func:`periodic_kernel`).
+
+Windowed operator
+-----------------
+The contact occupies a small part of the period (the period must be long, ``L >= 20 max(a0,
+V tau)``, to let the material recover between passes). Pressure is therefore carried only on a
+*window* of ``W`` cells around the contact; the displacement on the window is the restriction of
+the periodic convolution (1), i.e. a Toeplitz operator whose coefficients are the real-space
+influence coefficients ``c = IDFT(K)`` (one size-``N`` FFT). It is applied matrix-free by an
+FFT of size ``2W`` (circulant embedding), so the per-iteration cost does not grow with the
+period. No dense matrix is formed.
+
+Contact problem and solver
+--------------------------
+Unknowns: pressure ``p >= 0`` on the window cells, penetration ``d``. Gap
+``g = h - d + C p >= 0``, ``p g = 0``, ``sum(p) dA = P`` (``h`` = height of the rigid profile
+above its lowest point, ``dA`` = cell area). ``C`` is not symmetric for a viscoelastic layer,
+so the Polonsky-Keer CG is not used: the solver is a primal-dual active-set method (semismooth
+Newton on ``min(p, g) = 0``). Each step solves the equality-constrained system on the current
+contact set ``A`` (``g_A = 0``, ``p`` off ``A`` = 0, load) by restarted GMRES on the windowed FFT
+operator, then updates ``A = {p > 0 on A} U {g < 0 off A}``; it stops when ``A`` repeats.
+
+Differentiation
+---------------
+On the converged contact set the solution is the solution of a linear system whose matrix
+depends on ``T`` (material, layer, speed) and whose right-hand side depends on ``h`` and ``P``.
+The returned pressure and penetration come out of :func:`jax.lax.custom_linear_solve` on that
+system, so derivatives of any functional of the solution follow from the implicit function
+theorem (one adjoint GMRES solve), never from unrolling the active-set iterations (which run
+on ``stop_gradient`` inputs). The contact set is piecewise constant in the parameters; at a
+contact-edge event the derivative is the finite one-sided derivative of the discrete problem.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import scipy.special as sps
+from jax.scipy.sparse.linalg import gmres
+
+__all__ = [
+    "ContactSolution",
+    "WindowedCompliance",
+    "periodic_kernel",
+    "windowed_compliance",
+    "solve_contact",
+    "CONTACT_STATUS",
+    "dissipation_resistance",
+]
+
+#: Status codes of :class:`ContactSolution`.
+CONTACT_STATUS = {
+    0: "converged",
+    1: "active-set iteration did not converge within max_steps",
+    2: "linear solve on the contact set did not reach the tolerance",
+    3: "contact reaches the edge of the window/period: contact wider than the computational "
+    "domain (raise the window or the period)",
+    4: "non-finite solution (check the inputs: load > 0, finite compliance)",
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# Compliance kernel (exact alias sum) and the windowed operator
+# ---------------------------------------------------------------------------------------------
+
+
+def _alternating_inverse_square(a):
+    """``sum_{k>=0} (-1)^k / (a + k)^2`` for ``a > 0`` (numpy, trace-time constant)."""
+    return 0.25 * (sps.polygamma(1, 0.5 * a) - sps.polygamma(1, 0.5 * (a + 1.0)))
+
+
+def periodic_kernel(compliance_fn, period, n_cells, images: int = 2, dissipation: bool = False):
+    """Fourier multiplier ``K`` of the periodic cell-to-centre compliance, eq. (1) above.
+
+    Args:
+        compliance_fn: ``T(q)`` [m/Pa]; called with one real wavenumber array per axis
+            (``compliance_fn(qx)`` in 1D, ``compliance_fn(qx, qy)`` in 2D) [rad/m], broadcasting;
+            must return 0 at ``q = 0`` and satisfy ``T(-q) = conj T(q)``.
+        period: tuple of periods ``L_k`` [m] (traced allowed).
+        n_cells: tuple of static cell counts ``N_k`` (the last one even).
+        images: static number ``M`` of alias images on each side per axis.
+        dissipation: also return ``K2_r = sum_l q_x Im T S^2`` [m/Pa per m], the multiplier of
+            the exact dissipated power of the piecewise-constant pressure (1D tail included).
+
+    Returns:
+        ``K`` of shape ``(N_1, ..., N_{d-1}, N_d//2 + 1)`` (``rfftn`` layout), complex; with
+        ``dissipation=True`` the pair ``(K, K2)``.
+    """
+    period = tuple(period)
+    n_cells = tuple(int(n) for n in n_cells)
+    ndim = len(n_cells)
+    if len(period) != ndim:
+        raise ValueError(f"period has {len(period)} axes but n_cells has {ndim}")
+    if n_cells[-1] % 2:
+        raise ValueError(f"the last cell count must be even; got {n_cells[-1]}")
+    if images < 1:
+        raise ValueError("images must be >= 1")
+    M = int(images)
+    # Normalised alias wavenumber w = r/N + l per axis, q = 2 pi w / dx.
+    ws = []
+    for k, n in enumerate(n_cells):
+        r = np.arange(n // 2 + 1) if k == ndim - 1 else np.fft.fftfreq(n) * n
+        z = r / n
+        if k != ndim - 1:
+            z = np.where(z < 0, z + 1.0, z)  # map to [0, 1)
+        ws.append(z)
+    ls = np.arange(-M, M)
+    # shapes: grid axes first, then one image axis per grid axis
+    grids = np.meshgrid(*ws, indexing="ij")
+    img = np.meshgrid(*([ls] * ndim), indexing="ij")
+    wfull = [g.reshape(g.shape + (1,) * ndim) + i.reshape((1,) * ndim + i.shape) for g, i in zip(grids, img)]
+    dxs = [jnp.asarray(L) / n for L, n in zip(period, n_cells)]
+    qs = [2.0 * jnp.pi * w / dx for w, dx in zip(wfull, dxs)]
+    S = np.ones(wfull[0].shape)
+    for w in wfull:
+        S = S * np.sinc(w)
+    if ndim == 1:
+        # two extra columns: the first omitted image on each side (for the analytic tail)
+        z = ws[0]
+        w_tail = np.stack([z + M, z - M - 1.0], axis=-1)
+        q_all = 2.0 * jnp.pi * jnp.concatenate([wfull[0], w_tail], axis=-1) / dxs[0]
+        T_all = compliance_fn(q_all)
+        T, T_hi, T_lo = T_all[:, :-2], T_all[:, -2], T_all[:, -1]
+        q_hi, q_lo = q_all[:, -2], q_all[:, -1]
+    else:
+        T = compliance_fn(*qs)
+    img_axes = tuple(range(ndim, 2 * ndim))
+    K = jnp.sum(T * S.astype(complex), axis=img_axes)
+    K2 = None
+    if dissipation:
+        K2 = jnp.sum(qs[0] * jnp.imag(T) * S * S, axis=img_axes)
+    if ndim == 1:
+        # analytic tail beyond the explicit images, from the local C/|q| asymptote
+        dx = dxs[0]
+        sz = np.sin(np.pi * z)
+        sign = (-1.0) ** M
+        w_hi = dx * sz / (2.0 * np.pi**2) * sign * jnp.abs(q_hi) * _alternating_inverse_square(z + M)
+        w_lo = dx * sz / (2.0 * np.pi**2) * sign * jnp.abs(q_lo) * _alternating_inverse_square(1.0 - z + M)
+        tail = T_hi * w_hi.astype(complex) + T_lo * w_lo.astype(complex)
+        K = K + tail
+        if dissipation:
+            D_hi = q_hi * jnp.imag(T_hi) * jnp.abs(q_hi)
+            D_lo = q_lo * jnp.imag(T_lo) * jnp.abs(q_lo)
+            K2 = K2 + dx * sz**2 / (2.0 * np.pi**3) * (
+                D_hi * sps.zeta(3.0, z + M) + D_lo * sps.zeta(3.0, 1.0 - z + M)
+            )
+    return (K, K2) if dissipation else K
+
+
+class WindowedCompliance(eqx.Module):
+    """Periodic compliance restricted to a window of cells, applied by FFT (no dense matrix).
+
+    ``u = C p`` for pressures and displacements on the window grid: a Toeplitz operator with the
+    exact periodic influence coefficients, applied through a circulant embedding of size
+    ``2 W`` per axis.
+
+    Attributes:
+        multiplier: ``rfftn`` of the embedded influence coefficients [m/Pa].
+        column: influence coefficients of the full period, ``c = irfftn(K)`` [m/Pa]
+            (``c[0]`` = displacement of a cell centre under unit pressure on that cell).
+        shape: static window shape ``(W_1, ..., W_d)``.
+    """
+
+    multiplier: jax.Array
+    column: jax.Array
+    shape: tuple = eqx.field(static=True)
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def __call__(self, p):
+        """Displacement [m] on the window from pressure ``p`` [Pa] on the window."""
+        emb = tuple(2 * w for w in self.shape)
+        axes = tuple(range(-self.ndim, 0))
+        ph = jnp.fft.rfftn(p, s=emb, axes=axes)
+        u = jnp.fft.irfftn(self.multiplier * ph, s=emb, axes=axes)
+        return u[tuple(slice(0, w) for w in self.shape)]
+
+    @property
+    def self_compliance(self):
+        """Displacement at a cell centre per unit pressure on that cell [m/Pa]."""
+        return self.column[(0,) * self.ndim]
+
+
+def windowed_compliance(kernel, n_cells, window) -> WindowedCompliance:
+    """Build the windowed operator from the Fourier multiplier ``K`` of :func:`periodic_kernel`.
+
+    Args:
+        kernel: ``K`` in ``rfftn`` layout for the full period grid ``n_cells``.
+        n_cells: static tuple, cells per period per axis.
+        window: static tuple, window cells per axis (``<= n_cells``).
+    """
+    n_cells = tuple(int(n) for n in n_cells)
+    window = tuple(int(w) for w in window)
+    if len(window) != len(n_cells):
+        raise ValueError("window and n_cells must have the same number of axes")
+    for w, n in zip(window, n_cells):
+        if not 1 <= w <= n:
+            raise ValueError(f"window size {w} must lie in [1, {n}] (cells per period)")
+    col = jnp.fft.irfftn(kernel, s=n_cells)
+    idx, valid = [], []
+    for w, n in zip(window, n_cells):
+        # embedded circulant of size 2w: offsets 0..w-1, (pad), -(w-1)..-1
+        off = np.concatenate([np.arange(w), [0], np.arange(-(w - 1), 0)])
+        ok = np.ones(2 * w, bool)
+        ok[w] = False
+        idx.append(np.mod(off, n))
+        valid.append(ok)
+    emb = col[np.ix_(*idx)]
+    mask = valid[0]
+    for v in valid[1:]:
+        mask = np.logical_and.outer(mask, v)
+    emb = jnp.where(mask, emb, 0.0)
+    mult = jnp.fft.rfftn(emb)
+    return WindowedCompliance(multiplier=mult, column=col, shape=window)
+
+
+# ---------------------------------------------------------------------------------------------
+# Solver
+# ---------------------------------------------------------------------------------------------
+
+
+class ContactSolution(eqx.Module):
+    """Solution of the rolling contact problem on the window grid.
+
+    Attributes:
+        pressure: contact pressure [Pa] on the window cells.
+        penetration: rigid-body penetration ``d`` [m].
+        contact: boolean contact set (cells with ``g = 0``).
+        gap: gap ``h - d + C p`` [m] (0 on the contact set).
+        displacement: surface displacement ``C p`` [m] (zero-mean periodic part).
+        iterations: active-set iterations.
+        residual: final scaled residual, ``max |min(p/p_s, g/g_s)|`` with the load equation and
+            the linear residual (scales: mean contact pressure, ``p_s`` times the self
+            compliance).
+        status: integer code, see :data:`CONTACT_STATUS` (0 = converged).
+    """
+
+    pressure: jax.Array
+    penetration: jax.Array
+    contact: jax.Array
+    gap: jax.Array
+    displacement: jax.Array
+    iterations: jax.Array
+    residual: jax.Array
+    status: jax.Array
+
+
+def _flat(p, d):
+    return jnp.concatenate([p.ravel(), d[None]])
+
+
+def solve_contact(
+    compliance: "WindowedCompliance",
+    profile,
+    load,
+    cell_area,
+    *,
+    initial_contact=None,
+    tol: float = 1e-10,
+    max_steps: int = 50,
+    linear_restart: int = 80,
+    linear_maxiter: int = 20,
+    linear_method: str = "incremental",
+    throw: bool = True,
+) -> "ContactSolution":
+    """Solve frictionless steady-state rolling contact of a rigid profile (any dimension).
+
+    Find ``p >= 0``, ``d`` with ``g = h - d + C p >= 0``, ``p g = 0``, ``sum(p) dA = P``.
+
+    Args:
+        compliance: :class:`WindowedCompliance` (non-symmetric allowed).
+        profile: ``h`` [m], height of the rigid surface above its lowest point, on the window
+            grid (shape ``compliance.shape``).
+        load: total load ``P`` [N per unit length in 1D, N in 2D], positive.
+        cell_area: cell size ``dA`` [m in 1D, m^2 in 2D].
+        initial_contact: boolean initial guess of the contact set (default: the cells where
+            ``h`` lies in the lowest 10 % of its range).
+        tol: tolerance on the scaled residual (the linear solves use ``1e-3 tol``).
+        max_steps: static maximum number of active-set iterations.
+        linear_restart, linear_maxiter, linear_method: GMRES Krylov size, restarts and
+            ``solve_method`` per linear solve.
+        throw: raise (``eqx.error_if``) on failure if True; otherwise report it in ``status``.
+
+    Returns:
+        :class:`ContactSolution`; ``pressure`` and ``penetration`` are differentiable
+        (implicit function theorem on the converged contact set).
+    """
+    h = jnp.asarray(profile, dtype=float)
+    if h.shape != compliance.shape:
+        raise ValueError(f"profile shape {h.shape} does not match the window shape {compliance.shape}")
+    if initial_contact is None:
+        hmin, hmax = jnp.min(h), jnp.max(h)
+        initial_contact = h <= hmin + 0.1 * (hmax - hmin)
+    initial_contact = jnp.asarray(initial_contact, bool)
+    if initial_contact.shape != h.shape:
+        raise ValueError("initial_contact must have the window shape")
+    return _solve_contact(
+        compliance,
+        h,
+        jnp.asarray(load, dtype=float),
+        jnp.asarray(cell_area, dtype=float),
+        initial_contact,
+        tol=tol,
+        max_steps=max_steps,
+        linear_restart=linear_restart,
+        linear_maxiter=linear_maxiter,
+        linear_method=linear_method,
+        throw=throw,
+    )
+
+
+@eqx.filter_jit
+def _solve_contact(
+    compliance: WindowedCompliance,
+    profile,
+    load,
+    cell_area,
+    initial_contact,
+    *,
+    tol: float = 1e-10,
+    max_steps: int = 50,
+    linear_restart: int = 80,
+    linear_maxiter: int = 20,
+    linear_method: str = "incremental",
+    throw: bool = True,
+) -> ContactSolution:
+    shape = compliance.shape
+    h = profile
+    load = eqx.error_if(load, ~(load > 0), "the load must be positive")
+    mask0 = initial_contact
+
+    # ---- scales (preconditioning only; constants for differentiation) ----
+    sg = jax.lax.stop_gradient
+    n0 = jnp.maximum(jnp.sum(mask0), 1).astype(float)
+    p_s = sg(load / (cell_area * n0))
+    c0 = sg(jnp.abs(compliance.self_compliance))
+    g_s = p_s * c0
+    # load row: load_w * sum(p~) = load / load_ng, i.e. dA * sum(p) = load
+    load_w = cell_area * p_s / sg(load)
+
+    def make_matvec(C, mask, lw):
+        maskf = mask.astype(float)
+
+        def matvec(x):
+            pt = x[:-1].reshape(shape)
+            dt = x[-1]
+            gap_rows = maskf * (C(maskf * pt) * (p_s / g_s) - dt) + (1.0 - maskf) * pt
+            return jnp.concatenate([gap_rows.ravel(), (lw * jnp.sum(maskf * pt))[None]])
+
+        return matvec
+
+    def rhs(hh, mask, load_ratio):
+        maskf = mask.astype(float)
+        return jnp.concatenate([(-maskf * hh / g_s).ravel(), load_ratio[None]])
+
+    def lin_solve(mv, b, x0):
+        x, _ = gmres(mv, b, x0=x0, tol=tol * 1e-3, atol=0.0, restart=linear_restart,
+                     maxiter=linear_maxiter, solve_method=linear_method)
+        return x
+
+    # ---- primal-dual active-set iterations on stop_gradient inputs ----
+    C_ng = jax.tree_util.tree_map(sg, compliance)
+    h_ng = sg(h)
+    b_ratio = jnp.asarray(1.0)
+    lw_ng = sg(load_w)
+    x_init = _flat(mask0.astype(float), jnp.asarray(0.0))
+    eps = 1e-12
+
+    def body(state):
+        mask, x, it, _ = state
+        mv = make_matvec(C_ng, mask, lw_ng)
+        x = lin_solve(mv, rhs(h_ng, mask, b_ratio), x)
+        pt = x[:-1].reshape(shape)
+        gt = h_ng / g_s - x[-1] + C_ng(pt) * (p_s / g_s)
+        new = jnp.where(mask, pt > -eps, gt < -eps)
+        done = jnp.all(new == mask) | ~jnp.all(jnp.isfinite(x))
+        new = jnp.where(done, mask, new)
+        return new, x, it + 1, done
+
+    def cond(state):
+        _, _, it, done = state
+        return (~done) & (it < max_steps)
+
+    mask, x_ng, iters, done = jax.lax.while_loop(
+        cond, body, (mask0, x_init, jnp.asarray(0), jnp.asarray(False))
+    )
+    mask = sg(mask)
+    x_ng = sg(x_ng)
+
+    # ---- differentiable solution on the converged contact set (implicit function theorem) ----
+    mv = make_matvec(compliance, mask, load_w)
+    b = rhs(h, mask, load / sg(load))
+
+    x = jax.lax.custom_linear_solve(
+        mv,
+        b,
+        solve=lambda f, bb: lin_solve(f, bb, x_ng),
+        transpose_solve=lambda f, bb: lin_solve(f, bb, None),
+    )
+    pt = x[:-1].reshape(shape)
+    p = pt * p_s
+    d = x[-1] * g_s
+    u = compliance(p)
+    g = h - d + u
+
+    # ---- diagnostics ----
+    gt = g / g_s
+    comp = jnp.max(jnp.abs(jnp.minimum(pt, gt)))
+    lin_res = jnp.max(jnp.abs(sg(mv(x) - b)))
+    residual = sg(jnp.maximum(comp, lin_res))
+    edge = _edge_mask(shape)
+    touches = jnp.any(mask & edge)
+    finite = jnp.all(jnp.isfinite(p)) & jnp.isfinite(d)
+    status = jnp.where(
+        ~finite,
+        4,
+        jnp.where(touches, 3, jnp.where(~done, 1, jnp.where(residual > tol * 1e3, 2, 0))),
+    )
+    if throw:
+        p = eqx.branched_error_if(
+            p,
+            status != 0,
+            jnp.clip(status, 1, 4) - 1,
+            [f"contact solver failed: {CONTACT_STATUS[k]}" for k in (1, 2, 3, 4)],
+        )
+    return ContactSolution(
+        pressure=p,
+        penetration=d,
+        contact=mask,
+        gap=g,
+        displacement=u,
+        iterations=iters,
+        residual=residual,
+        status=status,
+    )
+
+
+def _edge_mask(shape):
+    """Boolean array, True on the outer cells of the window."""
+    m = np.zeros(shape, bool)
+    for k in range(len(shape)):
+        sl = [slice(None)] * len(shape)
+        sl[k] = 0
+        m[tuple(sl)] = True
+        sl[k] = -1
+        m[tuple(sl)] = True
+    return jnp.asarray(m)
+
+
+def dissipation_resistance(kernel2, pressure, n_cells, period):
+    """Rolling resistance from the dissipated power of a pressure field, ``-int p du/dx dA``.
+
+    Exact for the piecewise-constant pressure on the periodic grid (every alias mode included):
+    ``R_r = (dA^2/A) sum_r |DFT(p)_r|^2 K2_r`` with ``K2`` from
+    :func:`periodic_kernel` (``dissipation=True``), ``A = prod L_k``, ``dA = A / prod N_k``;
+    the discrete form of ``R_r = A sum_m q_x Im T(q_m) |p_hat_m|^2`` ([ZG] eq. 26/29 with the
+    solved pressure instead of a stationary one).
+
+    Args:
+        kernel2: ``K2`` in ``rfftn`` layout [m/Pa per m].
+        pressure: pressure [Pa] on a window of the period grid (any placement).
+        n_cells, period: the period grid (static tuple, tuple of lengths [m]).
+
+    Returns:
+        ``R_r`` [N/m in 1D, N in 2D].
+    """
+    n_cells = tuple(int(n) for n in n_cells)
+    area = 1.0
+    for L in period:
+        area = area * L
+    dA = area / math.prod(n_cells)
+    full = jnp.zeros(n_cells).at[tuple(slice(0, w) for w in pressure.shape)].set(pressure)
+    P = jnp.fft.rfftn(full)
+    n_last = n_cells[-1]
+    wts = np.full(n_last // 2 + 1, 2.0)
+    wts[0] = 1.0
+    wts[-1] = 1.0
+    return dA * dA / area * jnp.sum(wts * jnp.abs(P) ** 2 * kernel2)
