@@ -37,7 +37,9 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
             slices, [ZG] sec. 3, :mod:`jaxroll.slices`). ``pressure``/``rtol`` apply to
             ``"direct"`` only; ``period`` is passed on to the full/slice models.
         pressure: stationary pressure model of the direct method: ``"auto"`` (default; chosen
-            from ``gamma = r_c/H``), ``"thick"``, ``"thin"``, ``"thin-compressible"``.
+            from ``gamma = r_c/H``), ``"thick"``, ``"thin"``, ``"thin-compressible"``, or
+            ``"elastic"`` (spheres: the static elastic contact pressure solved on a grid by the 3D
+            contact solver, valid for any thickness, [ZG] footnote 4's open case).
         period: ``None`` (default): the aperiodic limit (single roller on an infinite layer).
             A period [m] (scalar, or ``(Lx, Ly)`` for spheres) selects [ZG]'s periodic series.
         n_terms: number of Fourier terms per direction of the periodic series.
@@ -54,7 +56,14 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
     Works under ``jax.jit``, ``jax.vmap`` (scalar ``radius``, ``load``, ``speed`` per call) and
     ``jax.grad`` with respect to the material and layer parameters, ``R``, ``P`` and ``V``.
     """
-    if method == "direct":
+    if method == "direct" and pressure == "elastic":
+        if geometry != "sphere" or period is not None or n_terms is not None:
+            raise ValueError("pressure='elastic' (static elastic contact pressure from the 3D contact solver) is "
+                             "implemented for geometry='sphere'; its resolution goes through **options")
+        from .sphere3d import direct_elastic_rolling_resistance
+
+        res = direct_elastic_rolling_resistance(material, layer, radius, load, speed, **options)
+    elif method == "direct":
         from .direct import direct_rolling_resistance
 
         res = direct_rolling_resistance(material, layer, radius=radius, load=load, speed=speed,
@@ -62,7 +71,9 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
                                         rtol=rtol, **options)
     elif method in ("full", "PD", "PP", "SP"):
         if n_terms is not None:
-            raise ValueError(f"method={method!r} takes its resolution through **options, not n_terms")
+            if not (method == "full" and geometry == "sphere"):
+                raise ValueError(f"method={method!r} takes its resolution through **options, not n_terms")
+            options = dict(options, n_terms=n_terms)
         if period is not None:
             options = dict(options, period=period)
         if method == "full" and geometry == "cylinder":

@@ -1,0 +1,294 @@
+"""Tests of the full 3D rolling sphere (jaxroll.sphere3d).
+
+Oracles: Hertz (jaxroll.reference.hertz_sphere) with the relaxed (V -> 0) and glassy (V -> inf)
+moduli, corrected for the periodic images by the exact square-lattice sum of the Boussinesq
+1/r field (Madelung constant 4 zeta(1/2) beta(1/2), mpmath); Jaffar's thick-layer load law
+(jaxroll.pressure.contact_radius, [ZG] eq. 32); the dissipation form of R_r (second method);
+convergence in spacing / period / terms; the direct series (jaxroll.direct, small f);
+central finite differences. Default-suite cases run at reduced resolution (12 cells per contact
+radius, 128^2 period cells, L = 10.7 r) and share a few compiled functions; full resolution is marked slow.
+"""
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import mpmath
+import numpy as np
+import pytest
+
+import jaxroll as jr
+from jaxroll import reference as ref
+from jaxroll import sphere3d as s3
+from jaxroll.direct import direct_rolling_resistance
+from jaxroll.pressure import contact_radius as model_radius
+
+G0, TAU, F, R, P = 3e6, 0.25, 1.0, 0.02, 10.0
+A_H = float(ref.hertz_sphere(P, R, G0).contact_radius)  # relaxed Hertz radius, 2.32 mm
+N, CPR = 128, 12
+W = 2 * int(np.ceil(1.25 * CPR)) + 1
+# square-lattice sum of 1/r with a neutralising background: sum'_n 1/|n| - int = 4 zeta(1/2) beta(1/2)
+MADELUNG = float(4 * mpmath.zeta(0.5) * mpmath.dirichlet(0.5, [0, 1, 0, -1]))
+
+
+@functools.partial(jax.jit, static_argnames=("n_cells", "window", "n_terms"))
+def _solve(theta, V, spacing, n_cells=N, window=W, n_terms=None):
+    G, tau, f, H, radius, load = theta
+    layer = jr.Layer(H)
+    s = s3.solve_sphere(jr.StandardLinearSolid(G, tau, f), layer, radius, load, V, spacing=spacing,
+                        n_cells=n_cells, window=window, n_terms=n_terms, throw=False)
+    return {
+        "result": s3._result(s, layer),
+        "Rr": s.resistance,
+        "Rr_diss": s.resistance_dissipation,
+        "d": s.contact.penetration,
+        "pmax": jnp.max(s.contact.pressure),
+        "r_set": s.contact_radius,
+        "r_moment": s.moment_radius,
+        "status": s.contact.status,
+        "period": s.period[0],
+    }
+
+
+def _theta(G=G0, tau=TAU, f=F, H=np.inf, radius=R, load=P):
+    return jnp.asarray([G, tau, f, H, radius, load], dtype=float)
+
+
+def _periodic_shift(G, L, load=P):
+    """Penetration change of a square lattice (period L) of point loads on an incompressible
+    half-space, mean level as reference: ``MADELUNG P/(4 pi G L)`` (Boussinesq u = P/(4 pi G r))."""
+    return MADELUNG * load / (4.0 * np.pi * G * L)
+
+
+@pytest.mark.parametrize("limit", ["relaxed", "glassy"])
+def test_hertz_halfspace_limits(limit):
+    # V -> 0: elastic contact with G0 (full rolling solve at V = 0). V -> inf: elastic contact
+    # with G0 (1 + f), from static_pressure(modulus="glassy") (on a *periodic* grid the q_x = 0
+    # modes are never excited in time, so the full model at V = inf keeps the relaxed modulus on
+    # that column: its glassy limit is reached only as a/Lx -> 0). Both vs Hertz within 1 %.
+    G = G0 if limit == "relaxed" else G0 * (1.0 + F)
+    hz = ref.hertz_sphere(P, R, G)
+    a = float(hz.contact_radius)
+    if limit == "relaxed":
+        out = _solve(_theta(), 0.0, a / CPR)
+        # R_r = 0 exactly at V = 0 (Im T = 0)
+        assert abs(float(out["Rr"])) < 1e-12 * P
+        d, pmax, r_m, r_s, L, status = (out["d"], out["pmax"], out["r_moment"], out["r_set"], out["period"],
+                                        out["status"])
+    else:
+        st = _static(G0, a / CPR, "glassy")
+        d, pmax, r_m, r_s, L, status = (st.penetration, st.peak_pressure, st.moment_radius, st.contact_radius,
+                                        st.period[0], st.status)
+    assert int(status) == 0
+    d_iso = float(d) - _periodic_shift(G, float(L))
+    print(f"\nHertz {limit}: d {d_iso / float(hz.penetration) - 1:+.2e}, p0 {float(pmax) / float(hz.peak_pressure) - 1:+.2e}, "
+          f"r_moment {float(r_m) / a - 1:+.2e}, r_set {float(r_s) / a - 1:+.2e}")
+    # errors: O(a^2) discretisation (~0.1 %), (a/L)^3 multipoles of the lattice correction
+    assert abs(d_iso / float(hz.penetration) - 1.0) < 0.01
+    assert abs(float(pmax) / float(hz.peak_pressure) - 1.0) < 0.01
+    # Hertz form second-moment radius: O(a^2); contact-set radius: cell quantised (+0.17 cells)
+    assert abs(float(r_m) / a - 1.0) < 0.01
+    assert abs(float(r_s) / a - 1.0) < 0.025
+
+
+@functools.partial(jax.jit, static_argnames=("modulus",))
+def _static(G, spacing, modulus):
+    return s3.static_pressure(jr.StandardLinearSolid(G, TAU, F), jr.Layer(jnp.inf), R, P, modulus=modulus,
+                              spacing=spacing, n_cells=N, window=W)
+
+
+def test_static_pressure_matches_hertz():
+    # static_pressure (issue item 2) on the same grid as the V = 0 full solve: same solution,
+    # and Hertz within 1 % (penetration with the lattice correction)
+    st = _static(G0, A_H / CPR, "static")
+    out = _solve(_theta(), 0.0, A_H / CPR)
+    hz = ref.hertz_sphere(P, R, G0)
+    # same discrete problem: solver tolerance (1e-10 scaled residual)
+    assert abs(float(st.penetration) / float(out["d"]) - 1.0) < 1e-8
+    d_iso = float(st.penetration) - _periodic_shift(G0, float(st.period[0]))
+    assert abs(d_iso / float(hz.penetration) - 1.0) < 0.01
+    assert abs(float(st.peak_pressure) / float(hz.peak_pressure) - 1.0) < 0.01
+
+
+@pytest.mark.parametrize("H_over_a", [2.0, 1.25])
+def test_jaffar_thick_layer(H_over_a):
+    # Jaffar's load-radius law [ZG] eq. 32 (pressure of Hertz form for gamma <= 0.9), static
+    H = H_over_a * A_H
+    mat = jr.StandardLinearSolid(G0, TAU, F)
+    r_j = float(model_radius(mat, jr.Layer(H), R, P, model="thick")[0])
+    assert r_j / H <= 0.9
+    out = _solve(_theta(H=H), 0.0, r_j / CPR)
+    assert int(out["status"]) == 0
+    # errors: Jaffar's Hertz-form assumption (< 1 % for gamma <= 0.9 per [ZG] 4.3), O(a^2) grid
+    print(f"\nJaffar gamma = {r_j / H:.2f}: r_moment/r_Jaffar - 1 = {float(out['r_moment']) / r_j - 1:+.2e}")
+    assert abs(float(out["r_moment"]) / r_j - 1.0) < 0.01
+
+
+@pytest.mark.parametrize("V", [2e-3, 1e-2, 5e-2])
+def test_moment_equals_dissipation(V):
+    # the two forms of R_r differ only by the collocation error of the discrete contact
+    # (O(a^2) with cell-quantisation noise): < 1 % at 12 cells per radius (measured 0.1-0.7 %);
+    # the RollingResult reports it as ``truncation``
+    c = _solve(_theta(H=0.03), V, A_H / CPR)
+    assert int(c["status"]) == 0
+    rel = abs(float(c["Rr"]) - float(c["Rr_diss"])) / float(c["Rr"])
+    print(f"\nV = {V}: moment {float(c['Rr']):.6g} N, dissipation {float(c['Rr_diss']):.6g} N, rel diff {rel:.2e}")
+    assert rel < 0.01
+    assert float(c["Rr"]) > 0
+    assert abs(float(c["result"].truncation) - rel) < 1e-12
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("V", [2e-3, 1e-2, 5e-2])
+def test_moment_equals_dissipation_fine(V):
+    # 24 cells per radius: the forms agree within 0.3 % (O(a^2) collocation error)
+    f = _solve(_theta(H=0.03), V, A_H / 24, n_cells=4 * N, window=2 * 30 + 1)
+    assert int(f["status"]) == 0
+    assert abs(float(f["Rr"]) - float(f["Rr_diss"])) / float(f["Rr"]) < 0.003
+
+
+def _convergence_rows(levels, key):
+    th = _theta(H=0.03)
+    V = 1e-2
+    rows = []
+    for lev in levels:
+        out = _solve(th, V, **lev)
+        assert int(out["status"]) == 0
+        rows.append((key(lev), float(out["Rr"]), float(out["Rr_diss"])))
+    return rows
+
+
+def _print_table(name, rows):
+    ref_v = rows[-1][1]
+    print(f"\nconvergence in {name} (H = 30 mm, P = {P} N, V = 1e-2 m/s, f = 1):")
+    print(f"{name:>22s} {'R_r moment [N]':>16s} {'R_r dissip. [N]':>16s} {'rel. to finest':>14s}")
+    for k, v, d in rows:
+        print(f"{k:>22s} {v:16.8g} {d:16.8g} {v / ref_v - 1:14.3e}")
+
+
+def _assert_monotone(rows):
+    ref_v = rows[-1][1]
+    errs = [abs(v / ref_v - 1.0) for _, v, _ in rows[:-1]]
+    assert all(e1 > e2 for e1, e2 in zip(errs, errs[1:])), errs
+
+
+def test_convergence_table():
+    # reduced: Fourier terms at fixed grid (aliased modes |m| <= n_terms; n_terms < N/2 would
+    # drop grid modes and is not a valid discretisation). The alias series alternates in the
+    # image index, so the terms beyond the grid's Nyquist mode change R_r by < 0.1 % here
+    # (monotone convergence at 4 levels: slow test).
+    tm = [dict(spacing=A_H / CPR, n_terms=n) for n in (N // 2, None, 4 * N)]
+    rows = _convergence_rows(tm, lambda l: f"n_terms = {l['n_terms'] or N}")
+    _print_table("terms", rows)
+    assert all(abs(v / rows[-1][1] - 1.0) < 1e-3 for _, v, _ in rows)
+
+
+@pytest.mark.slow
+def test_convergence_table_full():
+    # spacing at a fixed period (L = 21 r): O(a^2) with cell-quantisation noise of ~0.3 %, so
+    # only the size of the changes is asserted
+    sp = [dict(spacing=2 * N * A_H / CPR / n, n_cells=n, window=2 * int(np.ceil(1.25 * n * CPR / (2 * N))) + 1)
+          for n in (128, 192, 256, 384)]
+    rows = _convergence_rows(sp, lambda l: f"a = r/{A_H / l['spacing']:.0f}")
+    _print_table("spacing", rows)
+    assert all(abs(v / rows[-1][1] - 1.0) < 0.01 for _, v, _ in rows)
+    tm = [dict(spacing=A_H / CPR, n_terms=n) for n in (N // 2, N, 4 * N, 8 * N)]
+    rows = _convergence_rows(tm, lambda l: f"n_terms = {l['n_terms']}")
+    _print_table("terms", rows)
+    assert all(abs(v / rows[-1][1] - 1.0) < 1e-3 for _, v, _ in rows)
+    pe = [dict(spacing=A_H / CPR, n_cells=n) for n in (128, 256, 512, 1024)]
+    rows = _convergence_rows(pe, lambda l: f"L = {l['n_cells'] / CPR:.0f} r")
+    _print_table("period", rows)
+    _assert_monotone(rows)
+
+
+def _small_f_case(cpr, n_cells):
+    f, H = 0.01, 0.03
+    mat = jr.StandardLinearSolid(G0, TAU, f)
+    r_j = float(model_radius(mat, jr.Layer(H), R, P, model="thick")[0])
+    V = r_j / TAU
+    window = 2 * int(np.ceil(1.25 * cpr)) + 1
+    out = _solve(_theta(f=f, H=H), V, r_j / cpr, n_cells=n_cells, window=window)
+    assert int(out["status"]) == 0
+    L = float(out["period"])
+    direct = jax.jit(lambda G: direct_rolling_resistance(jr.StandardLinearSolid(G, TAU, f), jr.Layer(H), radius=R,
+                                                         load=P, speed=V, period=L, n_terms=4 * n_cells).value)(G0)
+    de = jax.jit(lambda G: s3.direct_elastic_rolling_resistance(
+        jr.StandardLinearSolid(G, TAU, f), jr.Layer(H), R, P, V, spacing=r_j / cpr, n_cells=n_cells,
+        window=window).value)(G0)
+    return out, float(direct), float(de)
+
+
+def test_direct_vs_full_small_f():
+    # f = 0.01 on a thick layer (H = 30 mm, gamma ~ 0.08): the stationary-pressure assumption
+    # is nearly exact. The full model's dissipation form and the direct series (Hertz/Jaffar
+    # pressure, same period) agree within 1 %; the direct series with the exact static grid
+    # pressure (issue item 2) agrees with it to O(f). The moment form carries the O(a)
+    # collocation error (1.6 % at 12 cells per radius, 0.6 % at 24: slow test).
+    out, direct, de = _small_f_case(CPR, N)
+    print(f"\nf = 0.01: full moment {float(out['Rr']) / direct - 1:+.2e}, full dissipation "
+          f"{float(out['Rr_diss']) / direct - 1:+.2e} vs direct (Hertz); direct-elastic vs full diss "
+          f"{de / float(out['Rr_diss']) - 1:+.2e}")
+    assert abs(float(out["Rr_diss"]) / direct - 1.0) < 0.01
+    assert abs(de / float(out["Rr_diss"]) - 1.0) < 0.01  # O(f) pressure change (measured 0.4 %)
+
+
+@pytest.mark.slow
+def test_direct_vs_full_small_f_fine():
+    out, direct, de = _small_f_case(24, 2 * N)
+    assert abs(float(out["Rr"]) / direct - 1.0) < 0.01
+    assert abs(float(out["Rr_diss"]) / direct - 1.0) < 0.01
+
+
+@pytest.mark.parametrize("params", [(0, 2, 3), pytest.param((1, 4, 5), marks=pytest.mark.slow)])
+def test_gradients_vs_finite_differences(params):
+    # implicit differentiation through the 3D solve vs central differences (rtol 1e-3); the
+    # step 1e-5 |p| keeps the contact set fixed; FD error: O(h^2) + solver tol/h ~ 1e-5.
+    th = _theta(H=0.03)
+    V = 1e-2
+    sp = A_H / CPR
+
+    def rr(t, v):
+        return _solve(t, v, sp)["Rr"]
+
+    g_th, g_v = jax.jit(jax.grad(rr, argnums=(0, 1)))(th, V)
+    for i in params:  # default suite: G0, f, H and V; slow: tau, R, P
+        h = 1e-5 * abs(float(th[i]))
+        e = jnp.zeros(6).at[i].set(h)
+        fd = (float(rr(th + e, V)) - float(rr(th - e, V))) / (2 * h)
+        print(f"\nparam {i}: grad {float(g_th[i]):.6e}, FD {fd:.6e}, rel {abs(float(g_th[i]) / fd - 1):.1e}")
+        assert abs(float(g_th[i]) - fd) <= 1e-3 * abs(fd) + 1e-9, (i, float(g_th[i]), fd)
+    hv = 1e-5 * V
+    fd = (float(rr(th, V + hv)) - float(rr(th, V - hv))) / (2 * hv)
+    print(f"V: grad {float(g_v):.6e}, FD {fd:.6e}, rel {abs(float(g_v) / fd - 1):.1e}")
+    assert abs(float(g_v) - fd) <= 1e-3 * abs(fd)
+
+
+def test_result_and_sweep():
+    # RollingResult fields; the batched sweep equals single solves (same resolution) to solver
+    # tolerance
+    lay = jr.Layer(0.03)
+    L = N * A_H / CPR
+    loads = jnp.asarray([6.0, 10.0])
+    V = 3e-3
+    sw = jax.jit(lambda G: s3.rolling_resistance_sweep(jr.StandardLinearSolid(G, TAU, F), lay, R, loads,
+                                                       jnp.asarray([V]), period=L, spacing=A_H / CPR, window=W,
+                                                       load_batch=1))(G0)
+    for j, Pj in enumerate([6.0, 10.0]):
+        o = _solve(_theta(H=0.03, load=Pj), V, A_H / CPR)
+        assert abs(float(sw["value"][0, j]) / float(o["Rr"]) - 1.0) < 1e-7
+    res = o["result"]
+    assert int(res.regime) == 4 and int(res.status) == 0
+    assert res.pressure.shape == (W, W) and res.grid[0].shape == (W,)
+    assert float(res.value) > 0 and float(res.truncation) < 0.01
+    # the contact-set radius of the rolling contact lies between the glassy and relaxed Hertz radii
+    assert float(ref.hertz_sphere(P, R, G0 * (1 + F)).contact_radius) * 0.97 < float(res.contact_radius)
+    assert float(res.contact_radius) < A_H * 1.03
+
+
+def test_bad_input_raises():
+    mat = jr.StandardLinearSolid(G0, TAU, F)
+    with pytest.raises(ValueError):
+        s3.rolling_resistance_full(mat, jr.Layer(0.03), R, jnp.ones(2), 0.01)
+    with pytest.raises(ValueError):
+        s3.rolling_resistance_full(mat, jr.Layer(0.03), R, P, 0.01, spacing=1e-3, n_cells=16, window=41)
