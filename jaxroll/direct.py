@@ -70,7 +70,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import as_float, where_safe
-from .layer import surface_compliance, transfer_compressible, transfer_incompressible
+from .layer import static_compliance, surface_compliance
 from .material import complex_modulus
 from .pressure import (
     PRESSURE_MODELS,
@@ -311,18 +311,14 @@ def _im_t_fast(layer, material, q, qx, qy, V):
 
     Quasi-static layers (``rho = 0``; checked at run time if ``rho`` is traced) use the exact
     factorisation ``T(q, q_x) = T_1(q) / G_m(q_x V)``, ``T_1`` the compliance at unit modulus
-    (:func:`jaxroll.layer.transfer_incompressible` / ``transfer_compressible``): the layer closed
+    (:func:`jaxroll.layer.static_compliance`): the layer closed
     form is evaluated on the shape of ``q`` only and ``G*`` on the shape of ``q_x`` only, so a
     tensor grid costs a product of two small evaluations. Otherwise
     :func:`jaxroll.layer.surface_compliance` on the broadcast grid.
     """
 
     def factorised(_):
-        one = jnp.ones((), dtype=jnp.complex128)
-        if layer.nu < 0.5:
-            t1 = jnp.real(transfer_compressible(q, layer.H, one, layer.nu))
-        else:
-            t1 = jnp.real(transfer_incompressible(q, layer.H, one, jnp.zeros((), dtype=jnp.complex128)))
+        t1 = static_compliance(layer, q)
         g = complex_modulus(material, qx * V)
         # Im(1/G_m) = Im(1/conj G*) = G''/|G*|^2 (no complex division)
         g_re, g_im = jnp.real(g), jnp.imag(g)

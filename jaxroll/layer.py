@@ -50,7 +50,15 @@ import numpy as np
 from ._numerics import as_float, to_complex as _c, where_safe
 from .material import _leaf, _require, complex_modulus, relaxed_modulus
 
-__all__ = ["Layer", "surface_compliance", "shear_wave_speed", "transfer_incompressible", "transfer_compressible"]
+__all__ = [
+    "Layer",
+    "surface_compliance",
+    "static_compliance",
+    "is_quasistatic",
+    "shear_wave_speed",
+    "transfer_incompressible",
+    "transfer_compressible",
+]
 
 
 class Layer(eqx.Module):
@@ -209,6 +217,40 @@ def transfer_compressible(q, H, G, nu):
     return jnp.where(halfspace, t_half, t_layer)
 
 
+def static_compliance(layer: Layer, q) -> jax.Array:
+    """Quasi-static compliance at unit shear modulus, ``T_1(q) = G T(q)`` [m] (real).
+
+    Without inertia (``rho = 0``, or any compressible layer) the compliance factorises exactly:
+    ``T(q_x, q_y) = T_1(|q|) / G_m(q_x V)``, with ``T_1 = H F(qH)/(2 qH)`` for the incompressible
+    layer (``F`` of the module docstring, evaluated as ``e^{-2a}`` scaled ratios: no overflow, no
+    cancellation), ``(1 - nu) H L(qH)/(qH)`` for the compressible one, ``1/(2q)`` and
+    ``(1-nu)/q`` for half-spaces, and ``T_1(0) = 0`` (oedometric ``H (1-2nu)/(2(1-nu))`` for
+    ``nu < 0.5``). Methods that evaluate many speeds or materials on one wavenumber grid compute
+    ``T_1`` once and divide by ``G_m``.
+    """
+    q = as_float(q)
+    H = layer.H
+    if layer.nu < 0.5:
+        return jnp.real(transfer_compressible(q, H, jnp.ones((), jnp.complex128), layer.nu))
+    halfspace = jnp.isinf(H)
+    Hf = where_safe(halfspace, 1.0, H)
+    a = where_safe(halfspace, 1.0, q * Hf)
+    e1 = jnp.exp(-2.0 * a)
+    # F(a)/(2a) = [e^{-2a}(sinh 2a - 2a)/(2a)] / [e^{-2a}(cosh 2a + 2a^2 + 1)]
+    t_layer = Hf * _scaled_sinhc_minus_one(2.0 * a) / (0.5 * (1.0 + e1 * e1) + (2.0 * a * a + 1.0) * e1)
+    q_pos = q > 0
+    t_half = jnp.where(q_pos, 0.5 / where_safe(q_pos, q, 1.0), 0.0)
+    return jnp.where(halfspace, t_half, t_layer)
+
+
+def is_quasistatic(layer: Layer) -> bool:
+    """True when ``rho`` is concretely zero (a traced ``rho`` takes the general path)."""
+    rho = layer.rho
+    if isinstance(rho, jax.core.Tracer):
+        return False
+    return bool(np.all(np.asarray(rho) == 0.0))
+
+
 def shear_wave_speed(layer: Layer, material) -> jax.Array:
     """Shear-wave speed ``sqrt(G0/rho)`` [m/s] of the relaxed material (``inf`` if
     ``rho = 0``). Rolling at or above it is rejected."""
@@ -247,7 +289,8 @@ def surface_compliance(layer: Layer, material, qx, qy, V) -> jax.Array:
     q2 = qx * qx + qy * qy
     q_pos = q2 > 0
     q = jnp.where(q_pos, jnp.sqrt(where_safe(q_pos, q2, 1.0)), 0.0)
-    if layer.nu < 0.5:
-        return transfer_compressible(q, H, G, layer.nu)
+    if layer.nu < 0.5 or is_quasistatic(layer):
+        # exact factorisation without inertia: real closed form once, divided by G_m
+        return _c(static_compliance(layer, q)) / G
     eps = jnp.where(q_pos, _c(layer.rho * V * V * qx * qx) / (G * _c(where_safe(q_pos, q2, 1.0))), 0.0)
     return transfer_incompressible(q, H, G, eps)

@@ -51,7 +51,7 @@ import numpy as np
 
 from . import contact as _contact
 from ._numerics import as_float, where_safe
-from .layer import Layer, surface_compliance, transfer_compressible, transfer_incompressible
+from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from .material import complex_modulus, glassy_modulus, relaxed_modulus
 from .pressure import contact_radius as _model_radius
 from .result import RollingResult
@@ -151,21 +151,6 @@ def _mode_grid(n_cells, period, n_terms):
     return qx, qy, S
 
 
-def _unit_compliance(layer, q):
-    """``T_1(q)`` [m per Pa times Pa] = ``T`` at unit (real) modulus, quasi-static; real."""
-    one = jnp.ones((), dtype=jnp.complex128)
-    if layer.nu < 0.5:
-        return jnp.real(transfer_compressible(q, as_float(layer.H), one, layer.nu))
-    return jnp.real(transfer_incompressible(q, as_float(layer.H), one, jnp.zeros((), dtype=jnp.complex128)))
-
-
-def _is_quasistatic(layer):
-    rho = layer.rho
-    if isinstance(rho, jax.core.Tracer):
-        return False
-    return bool(np.all(np.asarray(rho) == 0.0))
-
-
 class _LayerFactor(eqx.Module):
     """Speed-independent part of the kernel of a quasi-static layer (see :func:`sphere_kernel`):
     ``A = T_1 S`` and ``B = q_x T_1 S^2`` on the mode grid, and ``q_x`` per x-bin/image."""
@@ -180,7 +165,7 @@ def _layer_factor(layer, n_cells, period, n_terms):
     q2 = qx * qx + qy * qy
     pos = q2 > 0
     q = jnp.where(pos, jnp.sqrt(where_safe(pos, q2, 1.0)), 0.0)
-    t1 = _unit_compliance(layer, q)
+    t1 = static_compliance(layer, q)
     return _LayerFactor(A=t1 * S, B=qx * t1 * S * S, qx=qx[:, 0, :, 0])
 
 
@@ -214,7 +199,7 @@ def sphere_kernel(material, layer, speed, n_cells, period, n_terms):
     n_cells = tuple(int(n) for n in n_cells)
     if n_cells[1] % 2:
         raise ValueError(f"the y cell count must be even; got {n_cells[1]}")
-    if _is_quasistatic(layer):
+    if is_quasistatic(layer):
         return _kernel_from_factor(_layer_factor(layer, n_cells, period, n_terms), material, speed)
     qx, qy, S = _mode_grid(n_cells, period, n_terms)
     T = surface_compliance(layer, material, qx, qy, speed)
@@ -524,7 +509,7 @@ def rolling_resistance_sweep(
     )
     res = eqx.tree_at(lambda r: r.period_ok, res, jnp.asarray(True))
     r_est = jax.vmap(lambda P: estimate_contact_radius(material, layer, R, P))(loads)
-    quasi = _is_quasistatic(layer)
+    quasi = is_quasistatic(layer)
     factor = _layer_factor(layer, res.n_cells, res.period, res.n_terms) if quasi else None
 
     def one_speed(V):

@@ -247,3 +247,24 @@ def test_float32_inputs_are_computed_in_float64():
     t64 = jr.surface_compliance(layer, MAT, float(np.float32(123.4)), 0.0, float(np.float32(0.3)))
     assert t32.dtype == jnp.complex128
     assert t32 == t64
+
+
+@pytest.mark.parametrize("nu", [0.5, 0.3])
+def test_static_factorisation_equals_general_path(nu):
+    """Without inertia T = T_1(|q|)/G_m exactly: the factorised path (taken for rho = 0) agrees
+    with the general closed form evaluated at eps = 0."""
+    q = jnp.concatenate([jnp.zeros(1), jnp.logspace(-3, 7, 101)])
+    G = jnp.asarray(2.7e6 * np.exp(-0.6j))
+    for H in (0.004, jnp.inf):
+        t1 = jr.layer.static_compliance(jr.Layer(H=H, nu=nu), q)
+        if nu == 0.5:
+            ref = transfer_incompressible(q, H, G, jnp.zeros(q.shape, jnp.complex128))
+        else:
+            ref = transfer_compressible(q, H, G, nu)
+        np.testing.assert_allclose(t1.astype(jnp.complex128) / G, ref, rtol=1e-14, atol=0)
+    # and the public function with a traced density (general path) equals the static path
+    layer = jr.Layer(H=0.004)
+    qx, qy = jnp.asarray([0.0, 10.0, 1e3, 1e5]), jnp.asarray([0.0, 5.0, 0.0, 3e4])
+    static = jr.surface_compliance(layer, MAT, qx, qy, 0.2)
+    general = jax.jit(lambda rho: jr.surface_compliance(jr.Layer(H=0.004, rho=rho), MAT, qx, qy, 0.2))(0.0)
+    np.testing.assert_allclose(static, general, rtol=1e-14, atol=0)
