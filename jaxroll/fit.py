@@ -497,6 +497,7 @@ def fit_material(
             g = jax.grad(loss)(u)
             return u, (i < max_steps) | (jnp.linalg.norm(g) <= 1e-6 * (1.0 + loss(u)))
 
+    cost_of = jax.jit(lambda u: 0.5 * jnp.sum(residuals_u(u) ** 2))
     rng = np.random.default_rng(seed)
     logp0 = np.asarray(params.logp0())
     starts = []
@@ -507,16 +508,15 @@ def fit_material(
         # optax's L-BFGS mixes int32 and int64 internally: trace it with standard promotion
         with jax.numpy_dtype_promotion("standard"):
             u, ok = solve(u0)
-        r = residuals_u(u)
-        cost = float(0.5 * jnp.sum(r**2))
+        cost = float(cost_of(u))
         ok = bool(ok) and math.isfinite(cost)
         starts.append((cost, ok))
         if best is None or (math.isfinite(cost) and cost < best[0]):
             best = (cost, ok, u)
     cost, converged, u = best
     logp = params.logp_from_u(u)
-    r = residuals_logp(logp)
-    J = np.asarray(jax.jacfwd(residuals_logp)(logp))
+    r = jax.jit(residuals_logp)(logp)
+    J = np.asarray(jax.jit(jax.jacfwd(residuals_logp))(logp))
     dof = max(n_res - k, 1)
     chi2 = float(jnp.sum(r**2))
     s2 = 1.0 if absolute_sigma else chi2 / dof
