@@ -349,13 +349,10 @@ class FitResult:
 # the fit
 
 
-def _rolling_model(rolling, radius, geometry, method, rr_options):
+def _rolling_model(radius, geometry, method, rr_options):
     from .rolling import rolling_resistance  # the public dispatcher (all methods)
 
-    V = jnp.asarray(rolling.speed)
-    P = jnp.asarray(rolling.load)
-
-    def predict(material, layer):
+    def predict(material, layer, V, P):
         def one(v, p):
             return rolling_resistance(
                 material, layer, radius=radius, load=p, speed=v, geometry=geometry, method=method, **rr_options
@@ -437,28 +434,33 @@ def fit_material(
 
     params = _Params((initial, layer, shift), free, bounds)
 
-    predict_rr = None if rolling is None else _rolling_model(rolling, radius, geometry, method, dict(rr_options or {}))
-    rr_meas = None if rolling is None else jnp.asarray(rolling.value)
-    rr_sig = None if rolling is None else jnp.asarray(rolling.value if rolling.sigma is None else rolling.sigma)
+    # the data travel as jit arguments, not closure constants (XLA would constant-fold them)
+    data = {}
+    predict_rr = None
+    if rolling is not None:
+        predict_rr = _rolling_model(radius, geometry, method, dict(rr_options or {}))
+        data.update(V=jnp.asarray(rolling.speed), P=jnp.asarray(rolling.load), rr=jnp.asarray(rolling.value),
+                    rr_sig=jnp.asarray(rolling.value if rolling.sigma is None else rolling.sigma))
     if dma is not None:
-        w = jnp.asarray(dma.omega)
-        gs, gl = jnp.asarray(dma.storage), jnp.asarray(dma.loss)
-        ss, sl = (gs, gl) if dma_sigma is None else (jnp.asarray(dma_sigma[0]), jnp.asarray(dma_sigma[1]))
-        temps = None if dma.temperature is None else jnp.asarray(dma.temperature)
+        data.update(w=jnp.asarray(dma.omega), gs=jnp.asarray(dma.storage), gl=jnp.asarray(dma.loss))
+        data.update(ss=data["gs"] if dma_sigma is None else jnp.asarray(dma_sigma[0]),
+                    sl=data["gl"] if dma_sigma is None else jnp.asarray(dma_sigma[1]))
+        if dma.temperature is not None:
+            data["T"] = jnp.asarray(dma.temperature)
 
-    def residuals_logp(logp):
+    def residuals_logp(logp, data):
         material, lay, sh = params.build(logp)
         parts = []
         if predict_rr is not None:
-            parts.append((predict_rr(material, lay) - rr_meas) / rr_sig)
-        if dma is not None:
-            mat_t = material if temps is None else at_temperature(material, sh, temps)
-            g = complex_modulus(mat_t, w)
-            parts += [(jnp.real(g) - gs) / ss, (jnp.imag(g) - gl) / sl]
+            parts.append((predict_rr(material, lay, data["V"], data["P"]) - data["rr"]) / data["rr_sig"])
+        if "w" in data:
+            mat_t = material if "T" not in data else at_temperature(material, sh, data["T"])
+            g = complex_modulus(mat_t, data["w"])
+            parts += [(jnp.real(g) - data["gs"]) / data["ss"], (jnp.imag(g) - data["gl"]) / data["sl"]]
         return jnp.concatenate(parts)
 
-    def residuals_u(u, _args=None):
-        return residuals_logp(params.logp_from_u(u))
+    def residuals_u(u, data):
+        return residuals_logp(params.logp_from_u(u), data)
 
     n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
     k = params.size
@@ -469,19 +471,20 @@ def fit_material(
         lm = optx.LevenbergMarquardt(rtol=rtol, atol=rtol)
 
         @jax.jit
-        def solve(u0):
-            sol = optx.least_squares(residuals_u, lm, u0, max_steps=max_steps, throw=False)
+        def solve(u0, data):
+            sol = optx.least_squares(residuals_u, lm, u0, args=data, max_steps=max_steps, throw=False)
             return sol.value, sol.result == optx.RESULTS.successful
 
     else:
         import optax
 
         opt = optax.lbfgs()
-        loss = lambda u: 0.5 * jnp.sum(residuals_u(u) ** 2)  # noqa: E731
-        value_and_grad = optax.value_and_grad_from_state(loss)
 
         @jax.jit
-        def solve(u0):
+        def solve(u0, data):
+            loss = lambda u: 0.5 * jnp.sum(residuals_u(u, data) ** 2)  # noqa: E731
+            value_and_grad = optax.value_and_grad_from_state(loss)
+
             def step(carry):
                 u, state, i, _ = carry
                 value, grad = value_and_grad(u, state=state)
@@ -497,7 +500,7 @@ def fit_material(
             g = jax.grad(loss)(u)
             return u, (i < max_steps) | (jnp.linalg.norm(g) <= 1e-6 * (1.0 + loss(u)))
 
-    cost_of = jax.jit(lambda u: 0.5 * jnp.sum(residuals_u(u) ** 2))
+    cost_of = jax.jit(lambda u, data: 0.5 * jnp.sum(residuals_u(u, data) ** 2))
     rng = np.random.default_rng(seed)
     logp0 = np.asarray(params.logp0())
     starts = []
@@ -507,16 +510,16 @@ def fit_material(
         u0 = params.u_from_logp(jnp.asarray(lp))
         # optax's L-BFGS mixes int32 and int64 internally: trace it with standard promotion
         with jax.numpy_dtype_promotion("standard"):
-            u, ok = solve(u0)
-        cost = float(cost_of(u))
+            u, ok = solve(u0, data)
+        cost = float(cost_of(u, data))
         ok = bool(ok) and math.isfinite(cost)
         starts.append((cost, ok))
         if best is None or (math.isfinite(cost) and cost < best[0]):
             best = (cost, ok, u)
     cost, converged, u = best
     logp = params.logp_from_u(u)
-    r = jax.jit(residuals_logp)(logp)
-    J = np.asarray(jax.jit(jax.jacfwd(residuals_logp))(logp))
+    r = jax.jit(residuals_logp)(logp, data)
+    J = np.asarray(jax.jit(jax.jacfwd(residuals_logp))(logp, data))
     dof = max(n_res - k, 1)
     chi2 = float(jnp.sum(r**2))
     s2 = 1.0 if absolute_sigma else chi2 / dof
