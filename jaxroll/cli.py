@@ -193,9 +193,6 @@ def _thickness(text):
 
 
 def _curve(args) -> int:
-    import jax
-    import jax.numpy as jnp
-
     import jaxroll as jr
     from jaxroll import plot
 
@@ -227,8 +224,6 @@ def _curve(args) -> int:
 
 
 def _sweep_cmd(args) -> int:
-    import jax.numpy as jnp
-
     import jaxroll as jr
 
     out = Path(args.out)

@@ -41,7 +41,7 @@ from . import contact as _contact
 from ._numerics import as_float
 from .layer import Layer, surface_compliance
 from .material import glassy_modulus, relaxed_modulus
-from .result import RollingResult
+from .result import RollingResult, full_model_result
 
 __all__ = ["CylinderSolution", "solve_cylinder", "rolling_resistance_full"]
 
@@ -116,56 +116,12 @@ def _next_pow2(n):
     return 1 << max(1, int(math.ceil(math.log2(max(n, 2)))))
 
 
-def solve_cylinder(
-    material,
-    layer: Layer,
-    radius,
-    load,
-    speed,
-    *,
-    period=None,
-    n_cells: int | None = None,
-    cells_per_radius: int | None = None,
-    window: float = 3.0,
-    period_factor: float = 20.0,
-    images: int = 2,
-    tol: float = 1e-10,
-    max_steps: int = 50,
-    throw: bool = True,
-) -> CylinderSolution:
-    """Solve the rolling contact of a rigid cylinder on a viscoelastic layer (plane strain).
-
-    Args:
-        material: material of :mod:`jaxroll.material` (e.g. ``StandardLinearSolid(G0, tau, f)``).
-        layer: :class:`jaxroll.layer.Layer` (``H = inf`` for a half-space).
-        radius: cylinder radius ``R`` [m].
-        load: load per unit length ``P'`` [N/m], positive.
-        speed: rolling speed ``V`` [m/s] (>= 0; the cylinder travels toward +x).
-        period: fixed period ``L`` [m] (like the paper's 0.2 m); default: automatic.
-        n_cells: static number of cells per period; default automatic from concrete inputs
-            (``DEFAULT_TRACED_CELLS`` when traced without ``period``; required with a traced
-            ``period``).
-        cells_per_radius: static, cells per estimated contact half-width; default from
-            concrete inputs: 25 for ``0.03 <= V tau/a0 <= 30``, 128 below, 50 up to 300,
-            100 above, and at least ``2 a_est/H`` (cells no wider than H/2: on thin layers the
-            compliance kernel is only ~H wide); 25 when traced. See ``_auto_cells_per_radius``.
-        window: static, half-width of the pressure window in estimated half-widths.
-        period_factor: automatic period ``>= period_factor * max(4 a_est, V tau)``.
-        images: static alias images per side in the compliance kernel.
-        tol, max_steps, throw: solver options, see :func:`jaxroll.contact.solve_contact`.
-
-    Returns:
-        :class:`CylinderSolution`.
-    """
-    R = as_float(radius)
-    P = as_float(load)
-    V = as_float(speed)
-    for name, v in (("radius", R), ("load", P), ("speed", V)):
-        if v.shape != ():
-            raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
-    R = eqx.error_if(R, ~(R > 0), "radius must be positive")
-    P = eqx.error_if(P, ~(P > 0), "load per unit length must be positive")
-    V = eqx.error_if(V, ~(V >= 0), "speed must be non-negative")
+def line_grid(material, layer, R, P, V, *, period=None, n_cells=None, cells_per_radius=None, window=3.0,
+              period_factor=20.0):
+    """Grid of a 2D rolling cylinder (shared by :mod:`jaxroll.slices`): cell width, period,
+    cells per period, window cells, whether the period is long enough, the Hertz half-width
+    ``a0`` with ``G0`` and the estimated half-width ``a_est`` (Hertz or thin-layer, the smaller).
+    See :func:`solve_cylinder` for the options and the resolution rules."""
     G0 = relaxed_modulus(material)
     H = layer.H
     a0 = jnp.sqrt(P * R / (jnp.pi * G0))
@@ -218,6 +174,62 @@ def solve_cylinder(
         raise ValueError(
             f"the pressure window ({W} cells) is wider than the period ({N} cells): raise n_cells"
         )
+    return dx, L, N, W, L >= L_need, a0, a_est
+
+
+def solve_cylinder(
+    material,
+    layer: Layer,
+    radius,
+    load,
+    speed,
+    *,
+    period=None,
+    n_cells: int | None = None,
+    cells_per_radius: int | None = None,
+    window: float = 3.0,
+    period_factor: float = 20.0,
+    images: int = 2,
+    tol: float = 1e-10,
+    max_steps: int = 50,
+    throw: bool = True,
+) -> CylinderSolution:
+    """Solve the rolling contact of a rigid cylinder on a viscoelastic layer (plane strain).
+
+    Args:
+        material: material of :mod:`jaxroll.material` (e.g. ``StandardLinearSolid(G0, tau, f)``).
+        layer: :class:`jaxroll.layer.Layer` (``H = inf`` for a half-space).
+        radius: cylinder radius ``R`` [m].
+        load: load per unit length ``P'`` [N/m], positive.
+        speed: rolling speed ``V`` [m/s] (>= 0; the cylinder travels toward +x).
+        period: fixed period ``L`` [m] (like the paper's 0.2 m); default: automatic.
+        n_cells: static number of cells per period; default automatic from concrete inputs
+            (``DEFAULT_TRACED_CELLS`` when traced without ``period``; required with a traced
+            ``period``).
+        cells_per_radius: static, cells per estimated contact half-width; default from
+            concrete inputs: 25 for ``0.03 <= V tau/a0 <= 30``, 128 below, 50 up to 300,
+            100 above, and at least ``2 a_est/H`` (cells no wider than H/2: on thin layers the
+            compliance kernel is only ~H wide); 25 when traced. See ``_auto_cells_per_radius``.
+        window: static, half-width of the pressure window in estimated half-widths.
+        period_factor: automatic period ``>= period_factor * max(4 a_est, V tau)``.
+        images: static alias images per side in the compliance kernel.
+        tol, max_steps, throw: solver options, see :func:`jaxroll.contact.solve_contact`.
+
+    Returns:
+        :class:`CylinderSolution`.
+    """
+    R = as_float(radius)
+    P = as_float(load)
+    V = as_float(speed)
+    for name, v in (("radius", R), ("load", P), ("speed", V)):
+        if v.shape != ():
+            raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
+    R = eqx.error_if(R, ~(R > 0), "radius must be positive")
+    P = eqx.error_if(P, ~(P > 0), "load per unit length must be positive")
+    V = eqx.error_if(V, ~(V >= 0), "speed must be non-negative")
+    dx, L, N, W, period_ok, a0, a_est = line_grid(material, layer, R, P, V, period=period, n_cells=n_cells,
+                                                  cells_per_radius=cells_per_radius, window=window,
+                                                  period_factor=period_factor)
 
     def T(q):
         return surface_compliance(layer, material, q, 0.0, V)
@@ -247,7 +259,7 @@ def solve_cylinder(
         leading_edge=lead,
         trailing_edge=trail,
         a0=a0,
-        period_ok=L >= L_need,
+        period_ok=period_ok,
     )
 
 
@@ -266,21 +278,8 @@ def rolling_resistance_full(material, layer, radius, load, speed, **options) -> 
         ``iterations``, ``residual``.
     """
     s = solve_cylinder(material, layer, radius, load, speed, **options)
-    H = layer.H
-    gamma = jnp.where(jnp.isfinite(H), s.half_width / jnp.where(jnp.isfinite(H), H, 1.0), 0.0)
-    scale = jnp.maximum(jnp.abs(s.resistance), 1e-300)
-    trunc = jax.lax.stop_gradient(jnp.abs(s.resistance - s.resistance_dissipation) / scale)
-    return RollingResult(
-        value=s.resistance,
-        contact_radius=s.half_width,
-        gamma=gamma,
-        regime=jnp.asarray(4),
-        valid=(s.contact.status == 0) & s.period_ok,
-        truncation=trunc,
-        penetration=s.contact.penetration,
-        pressure=s.contact.pressure,
-        grid=s.x,
-        status=s.contact.status,
-        iterations=s.contact.iterations,
-        residual=s.contact.residual,
+    return full_model_result(
+        s.resistance, s.resistance_dissipation, s.half_width, layer.H, ok=(s.contact.status == 0) & s.period_ok,
+        penetration=s.contact.penetration, pressure=s.contact.pressure, grid=s.x, status=s.contact.status,
+        iterations=s.contact.iterations, residual=s.contact.residual,
     )

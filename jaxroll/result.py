@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 
-__all__ = ["RollingResult", "REGIMES"]
+__all__ = ["RollingResult", "REGIMES", "full_model_result"]
 
 #: Integer codes of ``RollingResult.regime`` (an array, so it survives jit/vmap).
 REGIMES = {0: "thick", 1: "thin", 2: "thin-compressible", 3: "elastic", 4: "full"}
@@ -43,3 +44,17 @@ class RollingResult(eqx.Module):
     status: jax.Array | None = None
     iterations: jax.Array | None = None
     residual: jax.Array | None = None
+
+
+def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, ok, penetration, pressure, grid,
+                      status, iterations, residual) -> RollingResult:
+    """The :class:`RollingResult` of a full contact model (2D cylinder, 3D sphere, slices):
+    ``value`` is the pressure-moment form of R_r, ``truncation`` its relative difference to the
+    dissipation form (a discretisation-error indicator), ``regime = 4``, ``valid = ok``."""
+    finite = jnp.isfinite(H)
+    gamma = jnp.where(finite, contact_radius / jnp.where(finite, H, 1.0), 0.0)
+    scale = jnp.maximum(jnp.abs(resistance), 1e-300)
+    trunc = jax.lax.stop_gradient(jnp.abs(resistance - resistance_dissipation) / scale)
+    return RollingResult(value=resistance, contact_radius=contact_radius, gamma=gamma, regime=jnp.asarray(4),
+                         valid=ok, truncation=trunc, penetration=penetration, pressure=pressure, grid=grid,
+                         status=status, iterations=iterations, residual=residual)

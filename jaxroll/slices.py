@@ -44,7 +44,6 @@ solves are differentiated implicitly as well.
 
 from __future__ import annotations
 
-import math
 
 import equinox as eqx
 import jax
@@ -53,10 +52,10 @@ from jax.scipy.sparse.linalg import gmres
 
 from . import contact as _contact
 from ._numerics import as_float
-from .cylinder import _auto_cells_per_radius, _concrete, _next_pow2, _retardation_time
+from .cylinder import line_grid
 from .layer import Layer, surface_compliance
 from .material import relaxed_modulus, storage_modulus
-from .result import RollingResult
+from .result import RollingResult, full_model_result
 
 __all__ = [
     "ALGORITHMS",
@@ -71,12 +70,6 @@ __all__ = [
 
 #: The three algorithms of [ZG] sec. 3.
 ALGORITHMS = ("PD", "PP", "SP")
-
-#: Default number of period cells when the inputs are traced and neither ``n_cells`` nor a
-#: concrete grid is available (same as the 2D cylinder).
-DEFAULT_TRACED_CELLS = 2**16
-MAX_AUTO_CELLS = 2**21
-
 
 class SliceSolution(eqx.Module):
     """Solution of a slice algorithm (slices with ``y_k >= 0`` only; the rest by symmetry).
@@ -251,7 +244,6 @@ def solve_dense(matrix, profile, value, cell_size, *, mode="penetration", initia
     v = jnp.asarray(value, dtype=float)
     W = h.shape[0]
     c0 = sg(jnp.abs(Cm[0, 0]))
-    eye = jnp.eye(W)
     if initial_contact is None:
         if mode == "penetration":
             initial_contact = h < sg(v)
@@ -370,52 +362,16 @@ def _root(fun, y0, *, tol=1e-10, max_steps=40, max_step=1.0):
 
 
 def _grid(material, layer, R, P, V, period, n_cells, cells_per_radius, window, period_factor):
-    """Shared slice grid from the middle slice's estimated half-width (as the 2D cylinder)."""
+    """Shared slice grid: the 2D cylinder's grid (:func:`jaxroll.cylinder.line_grid`) for the
+    middle slice's estimated load per unit length (eq. 6 with the relaxed Hertz radius, eq. 8
+    at omega = 0)."""
     G0 = relaxed_modulus(material)
-    H = layer.H
-    # Middle slice load estimate: eq. 6 with the relaxed Hertz radius (eq. 8 at omega = 0).
     r_h0 = (3.0 * P * R / (16.0 * G0)) ** (1.0 / 3.0)
     P0 = 3.0 * P / (4.0 * r_h0)
-    a0 = jnp.sqrt(P0 * R / (jnp.pi * G0))
-    finite_H = jnp.isfinite(H)
-    H_safe = jnp.where(finite_H, H, 1.0)
-    a_thin = jnp.where(finite_H, (15.0 * P0 * R * H_safe**3 / (2.0 * G0)) ** 0.2, jnp.inf)
-    a_est = jnp.minimum(a0, a_thin)
-    c = V * _retardation_time(material)
-    L_need = period_factor * jnp.maximum(a_est, c)
-    if cells_per_radius is None:
-        vals = _concrete(c / a0, a_est / H)
-        if vals is None:
-            cells_per_radius = 25
-        else:
-            cells_per_radius = max(_auto_cells_per_radius(vals[0]), int(math.ceil(2.0 * vals[1])))
-    if period is None:
-        W = 2 * int(math.ceil(window * cells_per_radius))
-        dx = a_est / cells_per_radius
-        if n_cells is None:
-            vals = _concrete(L_need, dx)
-            N = DEFAULT_TRACED_CELLS if vals is None else min(
-                _next_pow2(max(vals[0] / vals[1], 2 * W)), MAX_AUTO_CELLS)
-        else:
-            N = int(n_cells)
-        L = N * dx
-    else:
-        L = as_float(period)
-        L = eqx.error_if(L, ~(L > 0), "period must be positive")
-        vals = _concrete(L, a_est)
-        if n_cells is None:
-            if vals is None:
-                raise ValueError("with a traced period, pass n_cells (static)")
-            N = _next_pow2(vals[0] / (vals[1] / cells_per_radius))
-        else:
-            N = int(n_cells)
-        dx = L / N
-        W = N if vals is None else min(N, 2 * int(math.ceil(window * vals[1] / (vals[0] / N))))
-    if N % 2:
-        raise ValueError(f"n_cells must be even; got {N}")
-    if W > N:
-        raise ValueError(f"the pressure window ({W} cells) is wider than the period ({N} cells)")
-    return dx, L, N, W, L >= L_need
+    dx, L, N, W, period_ok, _, _ = line_grid(material, layer, R, P0, V, period=period, n_cells=n_cells,
+                                             cells_per_radius=cells_per_radius, window=window,
+                                             period_factor=period_factor)
+    return dx, L, N, W, period_ok
 
 
 def solve_slices(
@@ -662,22 +618,8 @@ def rolling_resistance_slices(material, layer, radius, load, speed, *, algorithm
 def slice_result(s: SliceSolution, layer: Layer) -> RollingResult:
     """:class:`jaxroll.result.RollingResult` of a :class:`SliceSolution` (see
     :func:`rolling_resistance_slices` for the fields)."""
-    H = layer.H
-    finite = jnp.isfinite(H)
-    gamma = jnp.where(finite, s.contact_radius / jnp.where(finite, H, 1.0), 0.0)
-    scale = jnp.maximum(jnp.abs(s.resistance), 1e-300)
-    trunc = jax.lax.stop_gradient(jnp.abs(s.resistance - s.resistance_dissipation) / scale)
-    return RollingResult(
-        value=s.resistance,
-        contact_radius=s.contact_radius,
-        gamma=gamma,
-        regime=jnp.asarray(4),
-        valid=(s.status == 0) & s.period_ok,
-        truncation=trunc,
-        penetration=s.middle_penetration,
-        pressure=s.pressure,
-        grid=(s.x, s.y),
-        status=s.status,
-        iterations=s.iterations,
-        residual=s.residual,
+    return full_model_result(
+        s.resistance, s.resistance_dissipation, s.contact_radius, layer.H, ok=(s.status == 0) & s.period_ok,
+        penetration=s.middle_penetration, pressure=s.pressure, grid=(s.x, s.y), status=s.status,
+        iterations=s.iterations, residual=s.residual,
     )

@@ -54,7 +54,7 @@ from ._numerics import as_float, where_safe
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from .material import complex_modulus, glassy_modulus, relaxed_modulus
 from .pressure import contact_radius as _model_radius
-from .result import RollingResult
+from .result import RollingResult, full_model_result
 
 __all__ = [
     "SphereSolution",
@@ -421,24 +421,10 @@ def solve_sphere(
 
 
 def _result(s: SphereSolution, layer) -> RollingResult:
-    H = as_float(layer.H)
-    fin = jnp.isfinite(H)
-    gamma = jnp.where(fin, s.contact_radius / where_safe(fin, H, 1.0), 0.0)
-    scale = jnp.maximum(jnp.abs(s.resistance), 1e-300)
-    trunc = jax.lax.stop_gradient(jnp.abs(s.resistance - s.resistance_dissipation) / scale)
-    return RollingResult(
-        value=s.resistance,
-        contact_radius=s.contact_radius,
-        gamma=gamma,
-        regime=jnp.asarray(4),
-        valid=(s.contact.status == 0) & s.period_ok,
-        truncation=trunc,
-        penetration=s.contact.penetration,
-        pressure=s.contact.pressure,
-        grid=(s.x, s.y),
-        status=s.contact.status,
-        iterations=s.contact.iterations,
-        residual=s.contact.residual,
+    return full_model_result(
+        s.resistance, s.resistance_dissipation, s.contact_radius, as_float(layer.H),
+        ok=(s.contact.status == 0) & s.period_ok, penetration=s.contact.penetration, pressure=s.contact.pressure,
+        grid=(s.x, s.y), status=s.contact.status, iterations=s.contact.iterations, residual=s.contact.residual,
     )
 
 

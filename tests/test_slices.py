@@ -190,7 +190,10 @@ def test_rolling_result_fields():
     np.testing.assert_allclose(float(r.gamma), float(s.contact_radius) / H, rtol=1e-15)
     # truncation = relative gap between moment and dissipation forms (checked above to 5e-3)
     assert 0 <= float(r.truncation) < 5e-3
-    assert int(r.regime) == 4 and bool(r.valid)
+    assert int(r.regime) == 4 and int(r.status) == 0
+    # the reduced grid's period (~51 estimated half-widths) is shorter than the 2D cylinder's
+    # measured rule L >= 20 max(4 a_est, V tau): flagged, not silently valid
+    assert not bool(s.period_ok) and not bool(r.valid)
 
 
 @pytest.mark.slow
