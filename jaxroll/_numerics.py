@@ -11,12 +11,13 @@ promoted, never computed in float32 silently.
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["as_float", "check_x64", "sinh_minus_x_scaled", "to_complex", "where_safe"]
+__all__ = ["as_float", "check_x64", "roller_inputs", "sinh_minus_x_scaled", "to_complex", "where_safe"]
 
 
 def check_x64() -> None:
@@ -75,3 +76,18 @@ def to_complex(x) -> jax.Array:
     """Real -> complex128, explicitly (strict dtype promotion forbids mixing float64 and
     complex128 implicitly, and the test suite runs with it)."""
     return jnp.asarray(x).astype(jnp.complex128)
+
+
+def roller_inputs(radius, load, speed):
+    """Radius ``R`` [m], load ``P`` [N, or N/m for cylinders] and speed ``V`` [m/s] as float64
+    scalars, checked once for every method: ``ValueError`` for non-scalars (use ``jax.vmap``
+    for sweeps), and ``eqx.error_if`` (works under jit/vmap/grad) for ``R <= 0``, ``P <= 0``,
+    ``V < 0`` or NaN."""
+    R, P, V = as_float(radius), as_float(load), as_float(speed)
+    for name, v in (("radius", R), ("load", P), ("speed", V)):
+        if v.shape != ():
+            raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
+    R = eqx.error_if(R, ~(R > 0), "radius R must be positive")
+    P = eqx.error_if(P, ~(P > 0), "load P must be positive")
+    V = eqx.error_if(V, ~(V >= 0), "speed V must be >= 0 (the roller travels toward +x)")
+    return R, P, V

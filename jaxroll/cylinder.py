@@ -38,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import contact as _contact
-from ._numerics import as_float
+from ._numerics import as_float, roller_inputs
 from .layer import Layer, surface_compliance
 from .material import glassy_modulus, relaxed_modulus
 from .result import RollingResult, full_model_result
@@ -218,15 +218,7 @@ def solve_cylinder(
     Returns:
         :class:`CylinderSolution`.
     """
-    R = as_float(radius)
-    P = as_float(load)
-    V = as_float(speed)
-    for name, v in (("radius", R), ("load", P), ("speed", V)):
-        if v.shape != ():
-            raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
-    R = eqx.error_if(R, ~(R > 0), "radius must be positive")
-    P = eqx.error_if(P, ~(P > 0), "load per unit length must be positive")
-    V = eqx.error_if(V, ~(V >= 0), "speed must be non-negative")
+    R, P, V = roller_inputs(radius, load, speed)
     dx, L, N, W, period_ok, a0, a_est = line_grid(material, layer, R, P, V, period=period, n_cells=n_cells,
                                                   cells_per_radius=cells_per_radius, window=window,
                                                   period_factor=period_factor)

@@ -69,7 +69,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, where_safe
+from ._numerics import as_float, roller_inputs, where_safe
 from .layer import static_compliance, surface_compliance
 from .material import complex_modulus
 from .pressure import (
@@ -467,14 +467,8 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
     """
     if geometry not in ("sphere", "cylinder"):
         raise ValueError(f"unknown geometry {geometry!r}; choose 'sphere' or 'cylinder'")
-    R, P, V = as_float(radius), as_float(load), as_float(speed)
-    for name, v in (("radius", R), ("load", P), ("speed", V)):
-        if jnp.ndim(v) != 0:
-            raise ValueError(f"{name} must be a scalar (use jax.vmap for batches); got shape {jnp.shape(v)}")
+    R, P, V = roller_inputs(radius, load, speed)
     H = as_float(layer.H)
-    P = eqx.error_if(P, ~(P > 0), "load P must be positive")
-    R = eqx.error_if(R, ~(R > 0), "radius R must be positive")
-    V = eqx.error_if(V, ~(V >= 0), "speed V must be >= 0 (the roller travels toward +x)")
     H = eqx.error_if(H, ~(H > 0), "layer thickness H must be positive (jnp.inf for a half-space)")
     layer = eqx.tree_at(lambda l: l.H, layer, H)
 

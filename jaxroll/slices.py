@@ -51,7 +51,7 @@ import jax.numpy as jnp
 from jax.scipy.sparse.linalg import gmres
 
 from . import contact as _contact
-from ._numerics import as_float
+from ._numerics import roller_inputs
 from .cylinder import line_grid
 from .layer import Layer, surface_compliance
 from .material import relaxed_modulus, storage_modulus
@@ -432,15 +432,7 @@ def solve_slices(
     n_slices = int(n_slices)
     if n_slices < 1 or n_slices % 2 == 0:
         raise ValueError(f"n_slices must be a positive odd integer; got {n_slices}")
-    R = as_float(radius)
-    P = as_float(load)
-    V = as_float(speed)
-    for name, v in (("radius", R), ("load", P), ("speed", V)):
-        if v.shape != ():
-            raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
-    R = eqx.error_if(R, ~(R > 0), "radius must be positive")
-    P = eqx.error_if(P, ~(P > 0), "load must be positive")
-    V = eqx.error_if(V, ~(V >= 0), "speed must be non-negative")
+    R, P, V = roller_inputs(radius, load, speed)
 
     dx, L, N, W, period_ok = _grid(material, layer, R, P, V, period, n_cells, cells_per_radius,
                                    window, period_factor)

@@ -50,7 +50,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import contact as _contact
-from ._numerics import as_float, where_safe
+from ._numerics import as_float, roller_inputs, where_safe
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from .material import complex_modulus, glassy_modulus, relaxed_modulus
 from .pressure import contact_radius as _model_radius
@@ -328,14 +328,6 @@ class SphereSolution(eqx.Module):
     period_ok: jax.Array
 
 
-def _check_scalars(R, P, V):
-    for name, v in (("radius", R), ("load", P), ("speed", V)):
-        if v.shape != ():
-            raise ValueError(f"{name} must be a scalar (use jax.vmap or rolling_resistance_sweep); got {v.shape}")
-    R = eqx.error_if(R, ~(R > 0), "radius must be positive")
-    P = eqx.error_if(P, ~(P > 0), "load must be positive")
-    V = eqx.error_if(V, ~(V >= 0), "speed must be non-negative (the sphere travels toward +x)")
-    return R, P, V
 
 
 def _solve_on(K, K2, res: _Resolution, R, P, r_init, *, tol, max_steps, throw, est, init=None):
@@ -410,7 +402,7 @@ def solve_sphere(
     Returns:
         :class:`SphereSolution` (differentiable in the material, layer, ``R``, ``P``, ``V``).
     """
-    R, P, V = _check_scalars(as_float(radius), as_float(load), as_float(speed))
+    R, P, V = roller_inputs(radius, load, speed)
     res, r_est = _resolution(
         material, layer, R, P, V, period=period, spacing=spacing, n_cells=n_cells, window=window,
         n_terms=n_terms, cells_per_radius=cells_per_radius, window_factor=window_factor,
@@ -589,7 +581,7 @@ def static_pressure(material, layer: Layer, radius, load, *, modulus: str = "sta
     Returns:
         :class:`StaticContact`.
     """
-    R, P, _ = _check_scalars(as_float(radius), as_float(load), jnp.asarray(0.0))
+    R, P, _ = roller_inputs(radius, load, 0.0)
     options = dict(options)
     wf = options.pop("window_factor", 1.25)
     pf = options.pop("period_factor", 20.0)
@@ -620,7 +612,7 @@ def direct_elastic_rolling_resistance(material, layer: Layer, radius, load, spee
         carried by the modes beyond the grid's Nyquist frequency (a truncation indicator),
         ``pressure``, ``grid``, ``penetration``, ``status``.
     """
-    R, P, V = _check_scalars(as_float(radius), as_float(load), as_float(speed))
+    R, P, V = roller_inputs(radius, load, speed)
     options = dict(options)
     wf = options.pop("window_factor", 1.25)
     pf = options.pop("period_factor", 20.0)
