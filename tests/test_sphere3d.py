@@ -147,6 +147,53 @@ def test_moment_equals_dissipation_fine(V):
     assert abs(float(f["Rr"]) - float(f["Rr_diss"])) / float(f["Rr"]) < 0.003
 
 
+def _spread(cpr, V, loads):
+    """RMS over ``loads`` of (moment - dissipation)/moment at ``cpr`` cells per radius (period
+    fixed at 10.7 r: ``n_cells = 128 cpr/12``)."""
+    n = int(round(N * cpr / CPR / 2)) * 2
+    window = 2 * int(np.ceil(1.25 * cpr)) + 1  # = W at 12 cells (shares the compiled solve); fits 14 N
+    rel = []
+    for load in loads:
+        o = _solve(_theta(H=0.03, load=load), V, A_H / cpr, n_cells=n, window=window)
+        assert int(o["status"]) == 0
+        rel.append((float(o["Rr"]) - float(o["Rr_diss"])) / float(o["Rr"]))
+    return float(np.sqrt(np.mean(np.square(rel))))
+
+
+def test_moment_vs_dissipation_converges():
+    # The two forms of R_r are equal for the continuum problem (in contact du/dx = -x/R), but the
+    # collocated discretisation enforces the gap only at cell centres, and the contact boundary
+    # cuts cells (quantisation noise): their spread is a discretisation error. Measured RMS over
+    # 9 loads 6..14 N (H = 30 mm, period 10.7 r), cells per radius 6 / 8 / 12 / 16 / 24 / 32:
+    #   V = 1e-3 m/s: 1.18e-2 7.4e-3 4.2e-3 2.7e-3 1.5e-3 8.3e-4  (fitted order 1.5)
+    #   V = 1e-2 m/s: 9.2e-3 5.9e-3 2.8e-3 1.2e-3 5.3e-4 3.4e-4  (order 2.1)
+    #   V = 1e-1 m/s: 3.1e-2 1.8e-2 8.8e-3 3.4e-3 1.4e-3 4.4e-4  (order 2.5)
+    # and each form converges at O(a^1.6-2.3) to the same Richardson limit. The paper's
+    # resolution (a = 0.25 mm) has 9 cells per radius at P = 10 N, hence the ~1-2 % spread at
+    # small loads. Reduced: cells per radius 6 vs 12 at V = 1e-2 (measured ratio 0.33, order 1.6
+    # over 5 loads); tolerance: order > 1 despite the quantisation noise
+    loads = (6.0, 8.0, 10.0, 12.0, 14.0)
+    coarse, fine = _spread(6, 1e-2, loads), _spread(CPR, 1e-2, loads)
+    print(f"\nmoment vs dissipation RMS spread: 6 cells/r {coarse:.2e}, 12 cells/r {fine:.2e}, "
+          f"order {np.log(coarse / fine) / np.log(2.0):.2f}")
+    assert fine < 0.5 * coarse
+    assert fine < 5e-3
+
+
+@pytest.mark.slow
+def test_moment_vs_dissipation_converges_fine():
+    # 6, 12, 24 cells per radius at three speeds, RMS over 9 loads: fitted order of the spread
+    # > 1 at each (measured 1.5-2.5 over 6..32 cells per radius; the quantisation noise makes the
+    # 3-level fit scatter by +-0.3), and < 0.3 % at 24 cells
+    loads = tuple(np.linspace(6.0, 14.0, 9))
+    for V in (1e-3, 1e-2, 1e-1):
+        rms = [_spread(c, V, loads) for c in (6, 12, 24)]
+        order = np.polyfit(np.log([1 / 6, 1 / 12, 1 / 24]), np.log(rms), 1)[0]
+        print(f"\nV = {V}: RMS spread {rms}, order {order:.2f}")
+        assert order > 1.0
+        assert rms[-1] < 3e-3
+
+
 def _convergence_rows(levels, key):
     th = _theta(H=0.03)
     V = 1e-2
@@ -202,20 +249,26 @@ def test_convergence_table_full():
     _assert_monotone(rows)
 
 
-def _small_f_case(cpr, n_cells):
-    f, H = 0.01, 0.03
+@functools.partial(jax.jit, static_argnames=("n_cells", "window"))
+def _direct_pair(f, H, V, L, spacing, n_cells, window):
+    """Direct series with the Hertz/Jaffar pressure (jaxroll.direct, period ``L``, ``4 n_cells``
+    terms) and with the exact static grid pressure (same grid as :func:`_solve`)."""
     mat = jr.StandardLinearSolid(G0, TAU, f)
-    r_j = float(model_radius(mat, jr.Layer(H), R, P, model="thick")[0])
-    V = r_j / TAU
+    direct = direct_rolling_resistance(mat, jr.Layer(H), radius=R, load=P, speed=V, period=L,
+                                       n_terms=4 * n_cells).value
+    de = s3.direct_elastic_rolling_resistance(mat, jr.Layer(H), R, P, V, spacing=spacing, n_cells=n_cells,
+                                              window=window).value
+    return direct, de
+
+
+def _small_f_case(cpr, n_cells, f=0.01, H=0.03):
+    mat = jr.StandardLinearSolid(G0, TAU, f)
+    r_j = float(model_radius(mat, jr.Layer(H), R, P, model="thick")[0])  # static modulus: f independent
+    V = r_j / TAU  # zeta = V tau/r = 1: the R_r peak, where the stationary-pressure error is largest
     window = 2 * int(np.ceil(1.25 * cpr)) + 1
     out = _solve(_theta(f=f, H=H), V, r_j / cpr, n_cells=n_cells, window=window)
     assert int(out["status"]) == 0
-    L = float(out["period"])
-    direct = jax.jit(lambda G: direct_rolling_resistance(jr.StandardLinearSolid(G, TAU, f), jr.Layer(H), radius=R,
-                                                         load=P, speed=V, period=L, n_terms=4 * n_cells).value)(G0)
-    de = jax.jit(lambda G: s3.direct_elastic_rolling_resistance(
-        jr.StandardLinearSolid(G, TAU, f), jr.Layer(H), R, P, V, spacing=r_j / cpr, n_cells=n_cells,
-        window=window).value)(G0)
+    direct, de = _direct_pair(f, H, V, out["period"], r_j / cpr, n_cells=n_cells, window=window)
     return out, float(direct), float(de)
 
 
@@ -223,14 +276,35 @@ def test_direct_vs_full_small_f():
     # f = 0.01 on a thick layer (H = 30 mm, gamma ~ 0.08): the stationary-pressure assumption
     # is nearly exact. The full model's dissipation form and the direct series (Hertz/Jaffar
     # pressure, same period) agree within 1 %; the direct series with the exact static grid
-    # pressure (issue item 2) agrees with it to O(f). The moment form carries the O(a)
-    # collocation error (1.6 % at 12 cells per radius, 0.6 % at 24: slow test).
+    # pressure (issue item 2) agrees with it to O(f). The moment form carries the collocation
+    # error (1.6 % at 12 cells per radius, 0.6 % at 24: slow test; see
+    # test_moment_vs_dissipation_converges).
     out, direct, de = _small_f_case(CPR, N)
     print(f"\nf = 0.01: full moment {float(out['Rr']) / direct - 1:+.2e}, full dissipation "
           f"{float(out['Rr_diss']) / direct - 1:+.2e} vs direct (Hertz); direct-elastic vs full diss "
           f"{de / float(out['Rr_diss']) - 1:+.2e}")
     assert abs(float(out["Rr_diss"]) / direct - 1.0) < 0.01
     assert abs(de / float(out["Rr_diss"]) - 1.0) < 0.01  # O(f) pressure change (measured 0.4 %)
+
+
+def test_direct_vs_full_gap_vanishes_with_f():
+    # The direct method keeps the static pressure; the full model's pressure shifts forward and
+    # narrows. On the same grid (direct series with the exact static grid pressure vs the full
+    # model's dissipation form: the discretisations cancel) the gap at the R_r peak
+    # (zeta = V tau/r = 1) is the stationary-pressure error alone: negative (the direct method
+    # underestimates, as the exact 2D cylinder shows: -18.8 % at zeta = 1, f = 1, see
+    # tests/test_direct.py) and O(f): measured -22.3 %, -3.7 %, -0.41 % at f = 1, 0.1, 0.01.
+    # Tolerances: the O(f^2) remainder of the linear law (measured ratio 0.111)
+    gaps = {}
+    for f in (1.0, 0.1, 0.01):
+        out, _, de = _small_f_case(CPR, N, f=f)
+        gaps[f] = de / float(out["Rr_diss"]) - 1.0
+    print("\ndirect (grid static pressure) vs full, zeta = 1: "
+          + ", ".join(f"f = {f:g}: {g:+.3e}" for f, g in gaps.items()))
+    assert all(g < 0 for g in gaps.values())
+    assert -0.30 < gaps[1.0] < -0.15
+    assert gaps[0.01] / gaps[0.1] == pytest.approx(0.1, rel=0.25)
+    assert abs(gaps[0.01]) < 0.006
 
 
 @pytest.mark.slow
