@@ -1,7 +1,7 @@
 """Material identification from measured rolling resistance and/or DMA data.
 
-Weighted least squares in log-parameters (positivity built in), solved by optimistix
-Levenberg-Marquardt (default) or optax L-BFGS, with multi-start, optional bounds and
+Weighted least squares in log-parameters (positivity built in), solved by a damped
+Levenberg-Marquardt iteration in log-parameters (default, ``solver="lm"``) or optax L-BFGS, with multi-start, optional bounds and
 Gauss-Newton uncertainty (covariance, standard errors, 95 % intervals, correlations).
 
 Residuals, stacked over the data sets supplied:
