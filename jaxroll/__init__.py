@@ -47,7 +47,7 @@ from .direct import QuadratureSettings, direct_rolling_resistance
 from .contact import ContactSolution, periodic_kernel, solve_contact, windowed_compliance
 from . import cylinder, sphere3d  # noqa: F401  (full models: jaxroll.cylinder, jaxroll.sphere3d)
 from .cylinder import CylinderSolution, solve_cylinder
-from .slices import SliceSolution, rolling_resistance_slices, solve_slices
+from .slices import SliceSolution, rolling_resistance_slices, rolling_resistance_slices_grid, solve_slices
 from .rolling import ValidityWarning, rolling_resistance
 from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
 from .fit import DMAData, FitResult, IdentifiabilityWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv

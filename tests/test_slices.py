@@ -2,9 +2,10 @@
 
 Oracles: the algorithms' defining equations evaluated independently (eq. 2, 6-7, 9, 10 and the
 load sum of eq. 11; eq. 10 integrated by scipy quadrature); the load-controlled 2D cylinder of
-jaxroll.cylinder (second method for the penetration-controlled slice solves); convergence in the
-slice count and the 2D resolution ([ZG] sec. 3.4: within 0.5 %); central finite differences for
-the gradients; the full 3D model (jaxroll.sphere3d, skipped until it exists).
+jaxroll.cylinder (second method for the penetration- and load-controlled slice solves, GMRES, LU
+and the default Levinson/interval solver); LU for the Levinson tables; convergence in the slice
+count and the 2D resolution ([ZG] sec. 3.4: within 0.5 %); central finite differences for the
+gradients; the full 3D model (jaxroll.sphere3d) for the paper's accuracy findings.
 Default-suite cases share one compiled function per algorithm at reduced resolution.
 """
 
@@ -117,10 +118,11 @@ def test_penetration_solve_matches_load_controlled_cylinder():
     layer = jr.Layer(H)
     Pl = 8e3
     N = 2**10
-    c = jax.jit(lambda: cy.solve_cylinder(mat, layer, R, Pl, V, n_cells=N, cells_per_radius=20))()
+    # the same kernel on both sides (2 alias images + tail)
+    c = jax.jit(lambda: cy.solve_cylinder(mat, layer, R, Pl, V, n_cells=N, cells_per_radius=20, images=2))()
     from jaxroll import contact as ct
 
-    K = ct.periodic_kernel(lambda q: jr.surface_compliance(layer, mat, q, 0.0, V), (c.period,), (N,))
+    K = ct.periodic_kernel(lambda q: jr.surface_compliance(layer, mat, q, 0.0, V), (c.period,), (N,), images=2)
     W = c.x.shape[0]
     C = ct.windowed_compliance(K, (N,), (W,))
     s = jax.jit(sl.solve_penetration)(C, c.x**2 / (2 * R), c.contact.penetration)
@@ -137,6 +139,35 @@ def test_penetration_solve_matches_load_controlled_cylinder():
                                atol=1e-8 * float(jnp.max(c.contact.pressure)))
     p, d, st, _ = sl.solve_dense(Cd, c.x**2 / (2 * R), Pl, c.dx, mode="load")
     np.testing.assert_allclose(float(d), float(c.contact.penetration), rtol=1e-9)
+    # interval solver (Levinson tables, the default of the slices), both modes: same discrete LCP
+    op = sl.interval_operator(C, c.x, c.dx)
+    solve_iv = jax.jit(sl.solve_interval, static_argnames="mode")
+    p, d, st, _, (l, n) = solve_iv(op, R, c.contact.penetration)
+    assert int(st) == 0 and int(n) == int(jnp.sum(c.contact.contact))
+    np.testing.assert_allclose(np.asarray(p), np.asarray(c.contact.pressure), rtol=0,
+                               atol=1e-8 * float(jnp.max(c.contact.pressure)))
+    p, d, st, _, _ = solve_iv(op, R, Pl, mode="load")
+    assert int(st) == 0
+    np.testing.assert_allclose(float(d), float(c.contact.penetration), rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(p), np.asarray(c.contact.pressure), rtol=0,
+                               atol=1e-8 * float(jnp.max(c.contact.pressure)))
+
+
+def test_toeplitz_nested_solve_matches_lu():
+    """Levinson tables vs LU on each leading block of a non-symmetric Toeplitz matrix."""
+    rng = np.random.default_rng(0)
+    N, W = 64, 24
+    # diagonally dominant, non-symmetric periodic column: all leading blocks well conditioned
+    col = 0.3 * rng.standard_normal(N) / (1.0 + np.minimum(np.arange(N), N - np.arange(N)))
+    col[0] = 2.0
+    rhs = rng.standard_normal((W, 3))
+    out = np.asarray(sl.toeplitz_nested_solve(jnp.asarray(col), W, jnp.asarray(rhs)))
+    i = np.arange(W)
+    T = col[np.mod(i[:, None] - i[None, :], N)]
+    for n in (1, 2, 7, W):
+        # rounding of an O(n^2) recursion on a well-conditioned matrix
+        np.testing.assert_allclose(out[n - 1, :n], np.linalg.solve(T[:n, :n], rhs[:n]), rtol=1e-12, atol=1e-13)
+        assert np.all(out[n - 1, n:] == 0.0)
 
 
 def test_zero_penetration_carries_nothing():
@@ -207,6 +238,25 @@ def test_convergence_slices_and_resolution(algorithm):
     assert abs(fine_grid / base - 1) < 5e-3
 
 
+def test_grid_entry_matches_single_solves():
+    """rolling_resistance_slices_grid (kernel shared per speed, loads vmapped) reproduces the
+    single-case solver at the same resolution (period, cells, window)."""
+    mat = jr.StandardLinearSolid(G0, TAU, F)
+    layer = jr.Layer(H)
+    # the single case's automatic grid: dx = a_est/20, L = 2^10 dx, window 2 ceil(3 * 20) cells
+    dx = float(sl._grid_estimate(mat, layer, R, P)) / 20
+    out = jax.jit(lambda: sl.rolling_resistance_slices_grid(
+        mat, layer, R, np.array([P, 30.0]), np.array([V, 0.1]), algorithm="SP", period=2**10 * dx,
+        n_cells=2**10, window_cells=120, root_tol=1e-12))()
+    assert np.all(np.asarray(out["status"]) == 0)
+    s = _case("SP")
+    # same discrete problem and iterations: rounding only
+    np.testing.assert_allclose(float(out["value"][0, 0]), float(s.resistance), rtol=1e-12)
+    np.testing.assert_allclose(float(out["penetration"][0, 0]), float(s.middle_penetration), rtol=1e-12)
+    np.testing.assert_allclose(float(out["load"][0, 0]), P, rtol=1e-9)  # eq. 11, root tolerance
+    np.testing.assert_allclose(np.asarray(out["load"]), np.array([[P, 30.0], [P, 30.0]]), rtol=1e-9)
+
+
 def test_convergence_slices_reduced():
     """Reduced copy of the convergence check: PD with 21 vs 61 slices within 0.5 %."""
     base = float(_case("PD").resistance)
@@ -215,41 +265,115 @@ def test_convergence_slices_reduced():
 
 
 # ----------------------------------------------------------------------------------------------
-# Against the full 3D model (jaxroll.sphere3d): skipped until it exists
+# Against the full 3D model (jaxroll.sphere3d)
 # ----------------------------------------------------------------------------------------------
 
-# reduced reference grid (the paper's is 23 speeds x 15 loads; too slow for a test)
-SPEEDS_REDUCED = np.geomspace(1e-3, 0.1, 3)
+# Reduced copy: 3 speeds x 2 loads (V tau/a from ~0.1 to ~10, across the R_r peak), 3D model at
+# twice the paper's cell (0.5 mm) and half its period (0.1 m), one compile for all H (traced);
+# the slices reuse the compiled reduced-resolution cases of the tests above.
+SPEEDS_REDUCED = np.array([1e-3, 1e-2, 1e-1])
 LOADS_REDUCED = np.array([30.0, 120.0])
 
 
-def _errors_vs_3d(sphere3d, H_, speeds, loads):
-    """Mean relative error (estimate/3D - 1) of each algorithm over a speed x load grid."""
+@functools.lru_cache(maxsize=None)
+def _sweep3d_coarse():
+    from jaxroll import sphere3d
+
+    @jax.jit
+    def run(H_):
+        out = sphere3d.rolling_resistance_sweep(
+            jr.StandardLinearSolid(G0, TAU, F), jr.Layer(H_), R, jnp.asarray(LOADS_REDUCED),
+            jnp.asarray(SPEEDS_REDUCED), period=0.1, spacing=5e-4, window=27)
+        return out["value"], out["status"]
+
+    return run
+
+
+def _errors_reduced(H_):
+    """Relative errors (slices/3D - 1), shape (speeds, loads), per algorithm."""
+    ref, st = _sweep3d_coarse()(H_)
+    assert np.all(np.asarray(st) == 0)
+    theta = THETA.at[3].set(H_)
+    err = {}
+    for alg in sl.ALGORITHMS:
+        # python floats: the same jit signature as the cases above (no recompilation)
+        est = np.array([[float(_solve(theta, float(v), float(p), alg).resistance) for p in LOADS_REDUCED]
+                        for v in SPEEDS_REDUCED])
+        err[alg] = est / np.asarray(ref) - 1.0
+    return err
+
+
+def test_against_full_3d_reduced():
+    """[ZG] sec. 3.4 findings at reduced resolution: PD far below the 3D model on thin and
+    intermediate layers (errors negative), SP at least as close as PP there, PD best at 30 mm.
+
+    Error sources of the reduced comparison: the coarse 3D grid (0.5 mm cells, 6-12 per contact
+    radius: a few % in R_r, mostly at high speed) and the different periods of the two models
+    (3D 0.1 m, slices ~51 a_est) at V = 0.1 m/s; the algorithmic errors compared here are
+    10-25 % (PD, H <= 5 mm) and 5-20 % (PP/SP, 30 mm). The full-resolution table is the slow
+    test below.
+    """
+    for H_ in (2e-3, 5e-3):
+        err = _errors_reduced(H_)
+        mean = {a: float(np.mean(e)) for a, e in err.items()}
+        # PD: geometric consistency loses 15-25 % of R_r on thin/intermediate layers (full table)
+        assert mean["PD"] < -0.1 and np.all(err["PD"] < 0), mean
+        # SP carries more load on the outer slices than PP: closer to the 3D model; 0.5 %
+        # allowance for the coarse 3D grid
+        assert abs(mean["SP"]) <= abs(mean["PP"]) + 5e-3, mean
+        # errors mostly negative (the full table: 59-100 % of the points); PP/SP within 10 %
+        assert all(m < 0.01 for m in mean.values()), mean
+        assert abs(mean["SP"]) < 0.1, mean
+    err = _errors_reduced(30e-3)
+    mean = {a: float(np.mean(e)) for a, e in err.items()}
+    # thick layer: PD best (full table: mean error of PD a few %, PP/SP ~ +10 %)
+    assert abs(mean["PD"]) < min(abs(mean["PP"]), abs(mean["SP"])), mean
+    assert abs(mean["PD"]) < 0.05, mean
+
+
+# full reference case: 23 speeds x 15 loads at the paper's resolution (3D: L = 0.2 m, a = 0.25 mm,
+# 500 terms, window >= 41; slices: L = 0.2 m, 2^10 cells = 0.195 mm)
+SPEEDS_REF = np.geomspace(1e-4, 1.0, 23)
+LOADS_REF = np.linspace(10.0, 150.0, 15)
+
+
+def reference_errors(H_):
+    """Relative errors (slices/3D - 1) over the reference case, shape (23, 15), per algorithm."""
+    import math
+
+    from jaxroll import sphere3d
+
     mat = jr.StandardLinearSolid(G0, TAU, F)
     layer = jr.Layer(H_)
-    out = {}
-    ref = np.array([[float(sphere3d.rolling_resistance_full(mat, layer, R, p, v).value) for p in loads]
-                    for v in speeds])
+    r_max = float(sphere3d.estimate_contact_radius(mat, layer, R, float(LOADS_REF.max())))
+    window = max(41, 2 * math.ceil(1.15 * r_max / 2.5e-4) + 1)
+    ref = jax.jit(lambda: sphere3d.rolling_resistance_sweep(
+        mat, layer, R, jnp.asarray(LOADS_REF), jnp.asarray(SPEEDS_REF), period=0.2, spacing=2.5e-4,
+        window=window, n_terms=500))()
+    assert np.all(np.asarray(ref["status"]) == 0)
+    err = {}
     for alg in sl.ALGORITHMS:
-        est = np.array([[float(sl.rolling_resistance_slices(mat, layer, R, p, v, algorithm=alg).value)
-                         for p in loads]
-                        for v in speeds])
-        out[alg] = est / ref - 1.0
-    return out
+        out = jax.jit(lambda alg=alg: sl.rolling_resistance_slices_grid(
+            mat, layer, R, LOADS_REF, SPEEDS_REF, algorithm=alg, period=0.2, n_cells=2**10))()
+        assert np.all(np.asarray(out["status"]) == 0)
+        err[alg] = np.asarray(out["value"]) / np.asarray(ref["value"]) - 1.0
+    return err
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("H_", [2e-3, 5e-3, 30e-3])
-def test_against_full_3d_reduced(H_):
-    """[ZG] sec. 3.4 findings: SP best for H = 2, 5 mm (errors mostly negative), PD best at 30 mm."""
-    sphere3d = pytest.importorskip("jaxroll.sphere3d", reason="full 3D model jaxroll.sphere3d not written yet")
-    err = _errors_vs_3d(sphere3d, H_, SPEEDS_REDUCED, LOADS_REDUCED)
+def test_against_full_3d_reference_case(H_):
+    """[ZG] sec. 3.4 findings on the full reference grid: SP best for H = 2 and 5 mm with
+    errors mostly negative, PD best for 30 mm."""
+    err = reference_errors(H_)
     mean = {a: float(np.mean(e)) for a, e in err.items()}
+    print(f"H = {H_ * 1e3:g} mm: mean relative error " + ", ".join(f"{a} {m:+.4f}" for a, m in mean.items()))
     best = min(mean, key=lambda a: abs(mean[a]))
     if H_ < 10e-3:
         assert best == "SP", mean
-        assert mean["SP"] < 0 and mean["PP"] < 0, mean  # approached from below
+        for a, e in err.items():
+            assert np.mean(e < 0) > 0.5, (a, np.mean(e < 0))  # mostly negative
     else:
         assert best == "PD", mean
-    # engineering accuracy promised by the paper's figures: mean error within 20 %
-    assert abs(mean[best]) < 0.2, mean
+    # engineering accuracy of the best algorithm (3D discretisation error ~1 %)
+    assert abs(mean[best]) < 0.1, mean
