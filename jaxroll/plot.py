@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -11,7 +13,8 @@ import numpy as np  # noqa: E402
 from . import layer as _layer  # noqa: E402
 from . import material as _material  # noqa: E402
 
-__all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit"]
+__all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
+           "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "close"]
 
 
 def _save(fig, path):
@@ -20,10 +23,25 @@ def _save(fig, path):
     return fig
 
 
-def plot_master_curves(materials: dict, omega=None, path=None):
-    """G', G'' [Pa] and tan delta against angular frequency [rad/s] for named materials."""
+def close(fig):
+    """Release a figure returned by this module (``matplotlib.pyplot.close``)."""
+    plt.close(fig)
+
+
+def plot_master_curves(materials: dict, omega=None, *, shift=None, temperatures=None, path=None):
+    """G', G'' [Pa] and tan delta against angular frequency [rad/s] for named materials.
+
+    With ``shift`` (:class:`jaxroll.WLF` or :class:`jaxroll.Arrhenius`) and ``temperatures``
+    [K], each material is also drawn at each temperature through time-temperature
+    superposition (:func:`jaxroll.at_temperature`: ``G*(omega; T) = G*_ref(omega a_T)``).
+    """
     omega = np.logspace(-3, 4, 300) if omega is None else np.asarray(omega)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    if (shift is None) != (temperatures is None):
+        raise ValueError("plot_master_curves: give both shift= and temperatures=, or neither")
+    if shift is not None:
+        materials = {f"{name}, T = {T:g} K": _material.at_temperature(mat, shift, float(T))
+                     for name, mat in materials.items() for T in np.atleast_1d(temperatures)}
     for name, mat in materials.items():
         g = np.asarray(_material.complex_modulus(mat, omega))
         (line,) = ax1.loglog(omega, g.real, label=f"G' {name}")
@@ -100,4 +118,137 @@ def plot_fit(speeds, loads, measured, fitted, *, unit="N", path=None):
         ax.grid(True, which="both", alpha=0.3)
     ax1.legend(fontsize=8)
     fig.tight_layout()
+    return _save(fig, path)
+
+
+def _load_colors(n):
+    cmap = plt.get_cmap("viridis")
+    return [cmap(i / max(1, n - 1)) for i in range(n)]
+
+
+def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N", title=None, path=None):
+    """R_r against speed (log axis) per load: one panel per method, the method as lines and the
+    reference (e.g. the full 3D model) as circles.
+
+    Args:
+        speeds: ``(n_speeds,)`` [m/s]; loads: ``(n_loads,)`` [N].
+        reference: ``(n_loads, n_speeds)`` [unit].
+        estimates: method name -> ``(n_loads, n_speeds)`` array [unit] (may be empty: the
+            reference alone is drawn).
+    """
+    speeds, loads, reference = np.asarray(speeds), np.asarray(loads), np.asarray(reference)
+    n = max(1, len(estimates))
+    ncol = min(n, 2)
+    nrow = math.ceil(n / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 3.6 * nrow), squeeze=False, sharey=True)
+    colors = _load_colors(len(loads))
+    items = list(estimates.items()) or [("reference", None)]
+    for k, (name, est) in enumerate(items):
+        ax = axes.flat[k]
+        for i, P in enumerate(loads):
+            lab = f"P = {P:g} N" if i in (0, len(loads) - 1) else None
+            ax.semilogx(speeds, reference[i], "o", ms=3, mfc="none", color=colors[i])
+            if est is not None:
+                ax.semilogx(speeds, np.asarray(est)[i], "-", color=colors[i], label=lab)
+        ax.set(title=name, xlabel="speed V [m/s]")
+        ax.grid(True, which="both", alpha=0.3)
+        if est is not None:
+            ax.legend(fontsize=7)
+    for ax in axes[:, 0]:
+        ax.set_ylabel(f"rolling resistance R_r [{unit}]")
+    for ax in list(axes.flat)[len(items):]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_relative_error(speeds, loads, errors: dict, *, title=None, path=None):
+    """Mean relative error [%] of each method against the reference: against speed (averaged
+    over loads, log axis) and against load (averaged over speeds), as in [ZG] figs. 3-8 (b).
+
+    ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-]
+    (``estimate/reference - 1``).
+    """
+    speeds, loads = np.asarray(speeds), np.asarray(loads)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
+    for name, e in errors.items():
+        e = 100.0 * np.asarray(e)
+        ax1.semilogx(speeds, e.mean(axis=0), "o-", ms=3, label=name)
+        ax2.plot(loads, e.mean(axis=1), "o-", ms=3, label=name)
+    ax1.set(xlabel="speed V [m/s]", ylabel="mean relative error [%]", title="against speed (mean over loads)")
+    ax2.set(xlabel="load P [N]", ylabel="mean relative error [%]", title="against load (mean over speeds)")
+    for ax in (ax1, ax2):
+        ax.axhline(0.0, color="k", lw=0.8)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_error_maps(speeds, loads, errors: dict, *, title=None, limit=None, path=None):
+    """Relative error [%] over the speed x load grid, one panel per method, on a diverging
+    colormap centred at 0 (red: the method overestimates, blue: underestimates).
+
+    ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-]; ``limit``: colour
+    range +-limit [%] (default: the largest absolute error, shared by all panels).
+    """
+    from matplotlib.colors import TwoSlopeNorm
+
+    speeds, loads = np.asarray(speeds), np.asarray(loads)
+    n = max(1, len(errors))
+    fig, axes = plt.subplots(1, n, figsize=(3.4 * n + 1.2, 3.4), squeeze=False, layout="constrained")
+    vals = [100.0 * np.asarray(e) for e in errors.values()]
+    lim = limit if limit is not None else max([float(np.nanmax(np.abs(v))) for v in vals] + [1e-3])
+    norm = TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim)
+    mesh = None
+    for ax, (name, v) in zip(axes.flat, zip(errors, vals)):
+        mesh = ax.pcolormesh(speeds, loads, v, cmap="RdBu_r", norm=norm, shading="nearest")
+        ax.set_xscale("log")
+        ax.set(title=name, xlabel="speed V [m/s]")
+    axes[0, 0].set_ylabel("load P [N]")
+    if mesh is not None:
+        fig.colorbar(mesh, ax=list(axes.flat), label="relative error [%]", shrink=0.9, pad=0.02)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return _save(fig, path)
+
+
+def plot_pressure_profile(x, pressures: dict, *, title=None, path=None):
+    """Contact pressure [Pa] of the 2D cylinder model against ``x`` [m] (rolling toward +x),
+    one curve per named solution (e.g. per speed), drawn in mm and MPa."""
+    x = np.asarray(x)
+    fig, ax = plt.subplots(figsize=(6.0, 3.8))
+    for name, p in pressures.items():
+        ax.plot(1e3 * x, 1e-6 * np.asarray(p), label=name)
+    ax.axvline(0.0, color="k", lw=0.6, ls=":")
+    ax.set(xlabel="x [mm] (rolling toward +x)", ylabel="pressure p [MPa]", title=title or "2D cylinder pressure")
+    p_all = np.concatenate([np.asarray(p) for p in pressures.values()]) if pressures else np.zeros(1)
+    on = np.abs(x)[np.any(np.stack([np.asarray(p) for p in pressures.values()]) > 0, axis=0)] if pressures else x
+    if on.size:
+        half = 1.4e3 * float(np.max(on))
+        ax.set_xlim(-half, half)
+    ax.set_ylim(bottom=0.0, top=1.1e-6 * float(np.max(p_all)) or None)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_pressure_map(x, y, pressure, *, contact=None, title=None, path=None):
+    """Contact pressure [Pa] of the 3D sphere model on its window (``pressure[i, j]`` at
+    ``(x[i], y[j])`` [m], rolling toward +x), drawn in MPa over mm, with the outline of the
+    contact set (``contact``: boolean array of the same shape; default ``pressure > 0``)."""
+    x, y, p = np.asarray(x), np.asarray(y), np.asarray(pressure)
+    c = (p > 0) if contact is None else np.asarray(contact)
+    fig, ax = plt.subplots(figsize=(5.4, 4.4))
+    mesh = ax.pcolormesh(1e3 * x, 1e3 * y, 1e-6 * p.T, cmap="magma", shading="nearest")
+    ax.contour(1e3 * x, 1e3 * y, c.T.astype(float), levels=[0.5], colors="w", linewidths=1.0)
+    ax.plot([0.0], [0.0], "c+", ms=8)
+    ax.set_aspect("equal")
+    ax.set(xlabel="x [mm] (rolling toward +x)", ylabel="y [mm]", title=title or "3D sphere pressure")
+    fig.colorbar(mesh, ax=ax, label="pressure p [MPa]")
     return _save(fig, path)

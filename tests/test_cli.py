@@ -73,6 +73,11 @@ def test_fit_from_csv(tmp_path):
         (["fit", "nonexistent.csv"], "need --radius"),
         (["fit"], "give a rolling-resistance CSV"),
         (["curve", "--loads", "a,b"], "comma-separated numbers"),
+        (["reproduce", "--cases", "H3mm"], "--cases: unknown ['H3mm']; choose from H2mm,H5mm,H30mm,H10um"),
+        (["reproduce", "--methods", "PD,XX"], "--methods: unknown ['XX']"),
+        (["reproduce", "--speeds", "0"], "--speeds: must be >= 1"),
+        (["reproduce", "--loads", "two"], "--loads: expected a whole number"),
+        (["reproduce", "--quik"], "unrecognized arguments: --quik"),
     ],
 )
 def test_bad_arguments_exit_2_with_message(argv, match, capsys):
@@ -86,3 +91,34 @@ def test_bad_physical_input_is_one_line_error(tmp_path, capsys):
     assert main(["curve", "--H", "-0.01", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "H must be a positive thickness" in err and "Traceback" not in err
+
+
+def test_reproduce_passes_selection_and_prints_tables(tmp_path, monkeypatch, capsys):
+    """The command builds the quick settings with the selections and prints both tables (the
+    pipeline itself runs in tests/test_reproduce.py; here it is replaced by a stub that runs
+    the real report writer on stub results)."""
+    from jaxroll import reproduce as rp
+
+    seen = {}
+
+    def fake(settings, out, **kw):
+        seen["settings"], seen["out"] = settings, out
+        loads, speeds = np.array([10.0, 150.0]), np.array([1e-3, 1e-1])
+        ref = rp.MethodResult(np.array([[1.0, 2.0], [3.0, 4.0]]), np.zeros((2, 2), int), 1.0, 2.0)
+        est = rp.MethodResult(np.array([[1.1, 2.0], [3.0, 3.6]]), np.zeros((2, 2), int), 0.5, 0.01)
+        rep = rp.Reproduction(settings, [rp.CaseResult(rp.CASES["H5mm"], loads, speeds, ref, {"PP": est})], 3.0)
+        rp.write_outputs(rep, out)
+        return rep
+
+    monkeypatch.setattr(rp, "reproduce", fake)
+    assert main(["reproduce", "--quick", "--cases", "H5mm", "--methods", "PP", "--speeds", "2", "--loads", "2",
+                 "--out", str(tmp_path)]) == 0
+    s = seen["settings"]
+    assert s.cases == ("H5mm",) and s.methods == ("PP",) and (s.n_speeds, s.n_loads) == (2, 2)
+    assert s.spacing == rp.QUICK.spacing and "quick" in s.label
+    out = capsys.readouterr().out
+    # PP mean error (+10 % + 0 + 0 - 10 %)/4 = 0; mean |error| 5 %; speed factor = 2.0 s / 0.01 s = 200
+    assert "| H = 5 mm, R = 2 cm | PP (slices) | +0.0 % | 5.0 % | 10.0 % |" in out
+    row = next(line for line in out.splitlines() if line.startswith("| PP (slices) |"))
+    assert "| 200 |" in row and "20.0 s" in row and row.rstrip().endswith("| 161 |")
+    assert (tmp_path / "report.md").exists() and (tmp_path / "rr_H5mm.png").exists()

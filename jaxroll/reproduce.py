@@ -1,0 +1,591 @@
+"""Reproduction of the paper's examples ([ZG] sec. 3.4 and 4.6) with every method side by side
+against the full 3D model, and a timing table in the form of [ZG] Table 1 measured here.
+
+Cases (material: standard linear solid G0 = 3 MPa, tau = 0.25 s, f = 1, [ZG] eq. 12;
+quasi-static layer, rho = 0; 23 log-spaced speeds 1e-4..1 m/s):
+
+==========  =========  ==========  =============  ==========================================
+case        H          R           loads          methods compared with the full 3D model
+==========  =========  ==========  =============  ==========================================
+``H2mm``    2 mm       2 cm        10..150 N      PD, PP, SP ([ZG] sec. 3.4, figure 3)
+``H5mm``    5 mm       2 cm        10..150 N      PD, PP, SP, direct (figures 4, 7)
+``H30mm``   30 mm      2 cm        10..150 N      PD, PP, SP, direct (figures 5, 6)
+``H10um``   10 um      2000 m      200..2000 N    direct (figure 8)
+==========  =========  ==========  =============  ==========================================
+
+The reference is the full 3D model (:func:`jaxroll.sphere3d.rolling_resistance_sweep`) at the
+paper's resolution (period L = 0.2 m, cells a = 0.25 mm, 500 Fourier terms per axis); the
+slice algorithms use the 2D cylinder model with the same period; the direct method is
+evaluated in its aperiodic limit (quadrature, ``rtol = 1e-4``) with the automatic stationary
+pressure (Jaffar thick layer / thin layer).
+
+Every method goes through one small adapter (``_grid_full``, ``_grid_slices``,
+``_grid_direct``) that returns ``R_r`` on the ``loads x speeds`` grid through the library's
+batched entry points (:func:`jaxroll.sphere3d.rolling_resistance_sweep`,
+:func:`jaxroll.slices.rolling_resistance_slices_grid`, :func:`jaxroll.sweep` over
+:func:`jaxroll.rolling_resistance`), so one can be replaced without touching the rest. Each adapter compiles ahead of time
+(``jax.jit(...).lower(...).compile()``) so that compile time is measured apart from run time,
+and reuses the compiled program across cases where the shapes allow.
+
+Entry points: :func:`run` (compute, returns a :class:`Reproduction`), :func:`write_outputs`
+(figures, ``report.md``, ``results.csv``, ``timing.csv``), :func:`reproduce` (both; used by
+``jaxroll reproduce``).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = ["Case", "CASES", "Settings", "FULL", "QUICK", "PAPER_TIMES", "PAPER_FACTORS", "Reproduction", "run",
+           "write_outputs", "reproduce", "METHOD_NAMES"]
+
+#: Material of the examples ([ZG] sec. 3.4): G0 [Pa], tau [s], f [-].
+G0, TAU, F = 3.0e6, 0.25, 1.0
+
+#: [ZG] Table 1 and sec. 2 / 4.1: seconds per reference case (23 speeds x 15 loads), Intel i7 M620.
+PAPER_TIMES = {"full": 54 * 60.0, "PD": 21.0, "PP": 20.0, "SP": 107.0, "direct": 23.0}
+#: [ZG] speed factors against the full 3D model (Table 1; direct: sec. 4.1).
+PAPER_FACTORS = {"PD": 153, "PP": 161, "SP": 30, "direct": 141}
+METHOD_NAMES = {"full": "full 3D", "PD": "PD (slices)", "PP": "PP (slices)", "SP": "SP (slices)",
+                "direct": "direct series"}
+SLICE_METHODS = ("PD", "PP", "SP")
+ALL_METHODS = ("PD", "PP", "SP", "direct")
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One example of the paper: layer thickness ``H`` [m], sphere radius ``R`` [m], load range
+    ``loads`` = (lowest, highest) [N], and the methods compared with the full 3D model."""
+
+    key: str
+    label: str
+    H: float
+    R: float
+    loads: tuple[float, float]
+    methods: tuple[str, ...]
+    figure: str
+
+
+CASES = {
+    "H2mm": Case("H2mm", "H = 2 mm, R = 2 cm", 2e-3, 0.02, (10.0, 150.0), SLICE_METHODS, "[ZG] fig. 3"),
+    "H5mm": Case("H5mm", "H = 5 mm, R = 2 cm", 5e-3, 0.02, (10.0, 150.0), SLICE_METHODS + ("direct",),
+                 "[ZG] figs. 4, 7"),
+    "H30mm": Case("H30mm", "H = 30 mm, R = 2 cm", 3e-2, 0.02, (10.0, 150.0), SLICE_METHODS + ("direct",),
+                  "[ZG] figs. 5, 6"),
+    "H10um": Case("H10um", "H = 10 um, R = 2000 m", 1e-5, 2000.0, (200.0, 2000.0), ("direct",), "[ZG] fig. 8"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """Resolution of a reproduction run.
+
+    Attributes:
+        n_speeds, n_loads: grid size (speeds log-spaced over ``speed_range`` [m/s], loads
+            linear over each case's range).
+        spacing: 3D cell size ``a`` [m] (paper 0.25 mm); n_terms: 3D Fourier cut-off per axis
+            (paper 500); period: ``L`` [m] of the 3D model and the slices (paper 0.2 m).
+        slice_cells, slice_window: cells per period and window cells of the 2D slices;
+            n_slices: number of slices (paper 21).
+        direct_rtol: relative accuracy of the direct method's aperiodic quadrature.
+        cases, methods: which cases and (non-reference) methods to run.
+        pressure_fields: also solve one 2D cylinder and one 3D sphere for the pressure figures.
+        label: shown in the report header.
+    """
+
+    n_speeds: int = 23
+    n_loads: int = 15
+    speed_range: tuple[float, float] = (1e-4, 1.0)
+    spacing: float = 2.5e-4
+    n_terms: int = 500
+    period: float = 0.2
+    slice_cells: int = 2**10
+    slice_window: int = 160
+    n_slices: int = 21
+    direct_rtol: float = 1e-4
+    cases: tuple[str, ...] = ("H2mm", "H5mm", "H30mm", "H10um")
+    methods: tuple[str, ...] = ALL_METHODS
+    pressure_fields: bool = True
+    label: str = "full (the paper's resolution)"
+
+
+#: The paper's resolution (about 10-20 min on 2 CPU cores).
+FULL = Settings()
+#: Reduced run (about a minute on 2 cores): 7 speeds x 3 loads, 3D cells 0.5 mm / 250 terms,
+#: slices on 512 cells with 11 slices.
+QUICK = Settings(n_speeds=7, n_loads=3, spacing=5e-4, n_terms=250, slice_cells=2**9, slice_window=80, n_slices=11,
+                 label="quick (reduced: 7 speeds x 3 loads, 3D cells 0.5 mm / 250 terms, slices 512 cells / 11 slices)")
+
+
+@dataclasses.dataclass
+class MethodResult:
+    values: np.ndarray  # (n_loads, n_speeds) [N]
+    status: np.ndarray  # 0 = converged
+    compile_s: float
+    run_s: float
+
+
+@dataclasses.dataclass
+class CaseResult:
+    case: Case
+    loads: np.ndarray
+    speeds: np.ndarray
+    reference: MethodResult
+    methods: dict  # name -> MethodResult
+
+    def relative_error(self, method) -> np.ndarray:
+        """(estimate - reference)/reference, shape (n_loads, n_speeds) [-]."""
+        return self.methods[method].values / self.reference.values - 1.0
+
+
+@dataclasses.dataclass
+class Reproduction:
+    """Everything :func:`run` computed (all arrays host NumPy, ``(n_loads, n_speeds)``)."""
+
+    settings: Settings
+    cases: list
+    wall_s: float
+    pressure: dict | None = None
+    environment: dict = dataclasses.field(default_factory=dict)
+
+    def timing(self) -> dict:
+        """Per method: mean run seconds per case scaled to the 345-point reference case, the
+        total compile seconds (paid once per process and shape), the measured points, and the speed factor against the full 3D
+        model on the same cases."""
+        out = {}
+        for name in ("full",) + ALL_METHODS:
+            runs, comps, pts, ref_runs = [], [], [], []
+            for cr in self.cases:
+                r = cr.reference if name == "full" else cr.methods.get(name)
+                if r is None:
+                    continue
+                n = r.values.size
+                runs.append(r.run_s * 345.0 / n)
+                comps.append(r.compile_s)
+                pts.append(n)
+                ref_runs.append(cr.reference.run_s * 345.0 / n)
+            if runs:
+                t = float(np.mean(runs))
+                out[name] = dict(per_case_s=t, compile_s=float(np.sum(comps)), points=int(np.sum(pts)),
+                                 single_s=t / 345.0, n_cases=len(runs), factor=float(np.mean(ref_runs)) / t)
+        return out
+
+
+# ---------------------------------------------------------------------------------------------
+# progress
+# ---------------------------------------------------------------------------------------------
+
+
+class _Progress:
+    def __init__(self, stream):
+        self.stream = stream
+        self.t0 = time.perf_counter()
+
+    def __call__(self, msg):
+        if self.stream is not None:
+            print(f"[{time.perf_counter() - self.t0:7.1f} s] {msg}", file=self.stream, flush=True)
+
+
+def _timed_aot(fn, *args):
+    """(output, compile seconds, run seconds) of ``jax.jit(fn)`` compiled ahead of time."""
+    t = time.perf_counter()
+    compiled = jax.jit(fn).lower(*args).compile()
+    c = time.perf_counter() - t
+    t = time.perf_counter()
+    out = jax.block_until_ready(compiled(*args))
+    return out, c, time.perf_counter() - t
+
+
+# ---------------------------------------------------------------------------------------------
+# adapters: one per method, R_r on the (loads x speeds) grid
+# ---------------------------------------------------------------------------------------------
+
+
+def _material():
+    import jaxroll as jr
+
+    return jr.StandardLinearSolid(G0, TAU, F)
+
+
+def _grid_full(case: Case, loads, speeds, s: Settings, window: int, cache: dict) -> MethodResult:
+    """Full 3D reference: :func:`jaxroll.sphere3d.rolling_resistance_sweep` (one kernel per
+    speed shared by all loads, warm-started contact sets)."""
+    import jaxroll as jr
+    from jaxroll import sphere3d
+
+    def fn(H, R, P, V):
+        out = sphere3d.rolling_resistance_sweep(_material(), jr.Layer(H), R, P, V, period=s.period,
+                                                spacing=s.spacing, window=window, n_terms=s.n_terms)
+        return out["value"].T, out["status"].T  # (n_loads, n_speeds)
+
+    args = (jnp.asarray(case.H), jnp.asarray(case.R), jnp.asarray(loads), jnp.asarray(speeds))
+    key = ("full", window, len(loads), len(speeds))
+    c = 0.0
+    if key not in cache:
+        t = time.perf_counter()
+        cache[key] = jax.jit(fn).lower(*args).compile()
+        c = time.perf_counter() - t
+    t = time.perf_counter()
+    v, st = jax.block_until_ready(cache[key](*args))
+    return MethodResult(np.asarray(v), np.asarray(st), c, time.perf_counter() - t)
+
+
+def _grid_slices(algorithm: str, case: Case, loads, speeds, s: Settings, cache: dict) -> MethodResult:
+    """Slice algorithm PD / PP / SP ([ZG] sec. 3): the batched
+    :func:`jaxroll.slices.rolling_resistance_slices_grid` (compliance built once per speed and
+    shared by all loads; each point equals :func:`jaxroll.slices.solve_slices` at the same
+    resolution)."""
+    import jaxroll as jr
+    from jaxroll import slices
+
+    def fn(H, R, P, V):
+        out = slices.rolling_resistance_slices_grid(_material(), jr.Layer(H), R, P, V, algorithm=algorithm,
+                                                    n_slices=s.n_slices, period=s.period, n_cells=s.slice_cells,
+                                                    window_cells=s.slice_window)
+        return out["value"].T, out["status"].T  # (n_loads, n_speeds)
+
+    args = (jnp.asarray(case.H), jnp.asarray(case.R), jnp.asarray(loads), jnp.asarray(speeds))
+    key = (algorithm, len(loads), len(speeds))
+    c = 0.0
+    if key not in cache:
+        t = time.perf_counter()
+        cache[key] = jax.jit(fn).lower(*args).compile()
+        c = time.perf_counter() - t
+    t = time.perf_counter()
+    v, st = jax.block_until_ready(cache[key](*args))
+    return MethodResult(np.asarray(v), np.asarray(st), c, time.perf_counter() - t)
+
+
+def _grid_direct(case: Case, loads, speeds, s: Settings, cache: dict) -> MethodResult:
+    """Direct series method ([ZG] sec. 4), aperiodic limit, automatic stationary pressure,
+    through :func:`jaxroll.sweep` over a :class:`jaxroll.Grid`. The first call includes the
+    compilation; compile time = first call - second call."""
+    import jaxroll as jr
+
+    mat = _material()
+    layer = jr.Layer(case.H)
+
+    def one(p):
+        return jr.rolling_resistance(mat, layer, radius=case.R, load=p.P, speed=p.V, geometry="sphere",
+                                     method="direct", rtol=s.direct_rtol).value
+
+    grid = jr.Grid(P=jnp.asarray(loads), V=jnp.asarray(speeds))
+    t = time.perf_counter()
+    jax.block_until_ready(jr.sweep(one, grid))
+    first = time.perf_counter() - t
+    t = time.perf_counter()
+    v = np.asarray(jax.block_until_ready(jr.sweep(one, grid)))
+    run_s = time.perf_counter() - t
+    return MethodResult(v, np.zeros(v.shape, int), max(first - run_s, 0.0), run_s)
+
+
+def _method_grid(method, case, loads, speeds, s, cache):
+    if method in SLICE_METHODS:
+        return _grid_slices(method, case, loads, speeds, s, cache)
+    if method == "direct":
+        return _grid_direct(case, loads, speeds, s, cache)
+    raise ValueError(f"unknown method {method!r}; choose from {ALL_METHODS}")
+
+
+def _full_window(s: Settings, cases: Sequence[Case]) -> int:
+    """One 3D pressure window (odd cell count) large enough for the largest static contact of
+    every case (1.15 x the estimated radius each side, at least the paper's 41 cells), so the
+    reference compiles once."""
+    import jaxroll as jr
+    from jaxroll import sphere3d
+
+    r = max(float(sphere3d.estimate_contact_radius(_material(), jr.Layer(c.H), c.R, c.loads[1])) for c in cases)
+    return max(41 if s.spacing <= 2.5e-4 else 1, 2 * math.ceil(1.15 * r / s.spacing) + 1)
+
+
+def _pressure_fields(s: Settings, log) -> dict:
+    """One 2D cylinder and one 3D sphere solution (H = 5 mm, near the R_r peak) for the
+    pressure figures."""
+    import jaxroll as jr
+
+    mat, layer = _material(), jr.Layer(5e-3)
+    V, P = 0.01, 100.0
+    t = time.perf_counter()
+    cyl = jr.solve_cylinder(mat, layer, 0.02, 3.0 * P / (4.0 * 4e-3), V)  # middle-slice load per length
+    sph = jr.sphere3d.solve_sphere(mat, layer, 0.02, P, V, cells_per_radius=8 if s.spacing > 2.5e-4 else 12)
+    log(f"pressure fields (H = 5 mm, P = {P:g} N, V = {V:g} m/s): {time.perf_counter() - t:.1f} s")
+    return dict(
+        V=V, P=P, cylinder_load=3.0 * P / (4.0 * 4e-3),
+        cylinder_x=np.asarray(cyl.x), cylinder_p=np.asarray(cyl.contact.pressure),
+        cylinder_R=float(cyl.resistance),
+        x=np.asarray(sph.x), y=np.asarray(sph.y), p=np.asarray(sph.contact.pressure),
+        contact=np.asarray(sph.contact.contact), R_r=float(sph.resistance),
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# run
+# ---------------------------------------------------------------------------------------------
+
+
+def run(settings: Settings = FULL, *, progress=sys.stderr) -> Reproduction:
+    """Compute every case of ``settings``: the full 3D reference and each method's ``R_r`` on
+    the loads x speeds grid, with compile and run times. Progress lines (elapsed seconds) go to
+    ``progress`` (a text stream, or None)."""
+    s = settings
+    unknown = [c for c in s.cases if c not in CASES]
+    if unknown or not s.cases:
+        raise ValueError(f"unknown or no case(s) {unknown}; choose from {list(CASES)}")
+    bad = [m for m in s.methods if m not in ALL_METHODS]
+    if bad:
+        raise ValueError(f"unknown method(s) {bad}; choose from {list(ALL_METHODS)}")
+    if s.n_speeds < 1 or s.n_loads < 1:
+        raise ValueError("n_speeds and n_loads must be >= 1")
+    log = _Progress(progress)
+    t0 = time.perf_counter()
+    cases = [CASES[k] for k in s.cases]
+    speeds = np.geomspace(s.speed_range[0], s.speed_range[1], s.n_speeds)
+    window = _full_window(s, cases)
+    log(f"jaxroll reproduce: {s.label}; {len(cases)} case(s), {s.n_speeds} speeds x {s.n_loads} loads; "
+        f"3D window {window}^2 cells of {s.spacing * 1e3:g} mm, period {s.period} m, {s.n_terms} terms")
+    cache: dict = {}
+    out = []
+    for case in cases:
+        loads = np.linspace(case.loads[0], case.loads[1], s.n_loads)
+        log(f"{case.label}: full 3D reference ({s.n_loads} x {s.n_speeds}) ...")
+        ref = _grid_full(case, loads, speeds, s, window, cache)
+        log(f"{case.label}: full 3D done: run {_fmt_time(ref.run_s)}, compile {_fmt_time(ref.compile_s)}; "
+            f"{int(np.sum(ref.status != 0))} non-converged")
+        res = {}
+        for m in case.methods:
+            if m not in s.methods:
+                continue
+            log(f"{case.label}: {METHOD_NAMES[m]} ...")
+            r = _method_grid(m, case, loads, speeds, s, cache)
+            res[m] = r
+            err = r.values / ref.values - 1.0
+            log(f"{case.label}: {METHOD_NAMES[m]} done: run {_fmt_time(r.run_s)}, compile {_fmt_time(r.compile_s)}; "
+                f"mean error {100 * np.mean(err):+.1f} %, mean |error| {100 * np.mean(np.abs(err)):.1f} %; "
+                f"{int(np.sum(r.status != 0))} non-converged")
+        out.append(CaseResult(case, loads, speeds, ref, res))
+    pressure = _pressure_fields(s, log) if s.pressure_fields else None
+    wall = time.perf_counter() - t0
+    env = dict(jax=jax.__version__, device=f"{jax.devices()[0].platform} x {len(jax.devices())}",
+               cpus=os.cpu_count(), load_avg=os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan"))
+    log(f"computed in {wall:.1f} s")
+    return Reproduction(s, out, wall, pressure, env)
+
+
+# ---------------------------------------------------------------------------------------------
+# outputs
+# ---------------------------------------------------------------------------------------------
+
+
+def _fmt_time(t):
+    if t >= 120:
+        return f"{t / 60:.1f} min"
+    if t >= 1:
+        return f"{t:.1f} s"
+    if t >= 1e-3:
+        return f"{t * 1e3:.0f} ms"
+    return f"{t * 1e6:.0f} us"
+
+
+def timing_table(rep: Reproduction) -> str:
+    """Markdown table in the form of [ZG] Table 1, measured here, next to the paper's figures."""
+    tim = rep.timing()
+    rows = ["| method | single run (here) | reference case, 23 x 15 (here) | speed factor vs full 3D (here) "
+            "| compile (here, apart) | paper: reference case | paper: speed factor |",
+            "|---|---|---|---|---|---|---|"]
+    for name, t in tim.items():
+        pf = PAPER_FACTORS.get(name)
+        factor = "1" if name == "full" else f"{t['factor']:.0f}"
+        rows.append(f"| {METHOD_NAMES[name]} | {_fmt_time(t['single_s'])} | {_fmt_time(t['per_case_s'])} | "
+                    f"{factor} | {_fmt_time(t['compile_s'])} | "
+                    f"{_fmt_time(PAPER_TIMES[name])} | {'1' if name == 'full' else pf} |")
+    return "\n".join(rows)
+
+
+def accuracy_table(rep: Reproduction) -> str:
+    """Markdown table: mean signed, mean absolute and largest relative error of each method
+    against the full 3D model, per case."""
+    rows = ["| case | method | mean error | mean abs. error | max abs. error | at (P, V) of max |",
+            "|---|---|---|---|---|---|"]
+    for cr in rep.cases:
+        for m in cr.methods:
+            e = cr.relative_error(m)
+            i, j = np.unravel_index(np.argmax(np.abs(e)), e.shape)
+            rows.append(f"| {cr.case.label} | {METHOD_NAMES[m]} | {100 * np.mean(e):+.1f} % | "
+                        f"{100 * np.mean(np.abs(e)):.1f} % | {100 * np.abs(e[i, j]):.1f} % | "
+                        f"({cr.loads[i]:g} N, {cr.speeds[j]:.2g} m/s) |")
+    return "\n".join(rows)
+
+
+def write_outputs(rep: Reproduction, out) -> list:
+    """Write figures (PNG), ``report.md``, ``results.csv`` and ``timing.csv`` into ``out``;
+    return the written paths."""
+    from . import plot
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    figs = {}
+    for cr in rep.cases:
+        k = cr.case.key
+        est = {METHOD_NAMES[m]: r.values for m, r in cr.methods.items()}
+        err = {METHOD_NAMES[m]: cr.relative_error(m) for m in cr.methods}
+        name = f"rr_{k}.png"
+        f = plot.plot_method_comparison(cr.speeds, cr.loads, cr.reference.values, est, unit="N",
+                                        title=f"{cr.case.label}: methods (lines) vs full 3D (circles)",
+                                        path=out / name)
+        figs[k] = [name]
+        plot.close(f)
+        if err:
+            name = f"error_{k}.png"
+            plot.close(plot.plot_relative_error(cr.speeds, cr.loads, err, title=f"{cr.case.label}: mean relative "
+                                                "error vs full 3D", path=out / name))
+            figs[k].append(name)
+            name = f"errormap_{k}.png"
+            plot.close(plot.plot_error_maps(cr.speeds, cr.loads, err, title=cr.case.label, path=out / name))
+            figs[k].append(name)
+        written += [out / n for n in figs[k]]
+    extra = []
+    plot.close(plot.plot_master_curves({"[ZG] SLS": _material()}, path=out / "master_curves.png"))
+    extra.append("master_curves.png")
+    if rep.pressure is not None:
+        pr = rep.pressure
+        plot.close(plot.plot_pressure_profile(pr["cylinder_x"], {f"V = {pr['V']:g} m/s": pr["cylinder_p"]},
+                                              title=f"2D cylinder, H = 5 mm, P' = {pr['cylinder_load']:.0f} N/m",
+                                              path=out / "pressure_cylinder.png"))
+        plot.close(plot.plot_pressure_map(pr["x"], pr["y"], pr["p"], contact=pr["contact"],
+                                          title=f"3D sphere, H = 5 mm, P = {pr['P']:g} N, V = {pr['V']:g} m/s",
+                                          path=out / "pressure_sphere.png"))
+        extra += ["pressure_cylinder.png", "pressure_sphere.png"]
+    written += [out / n for n in extra]
+
+    # CSV of all numbers
+    with open(out / "results.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["case", "H", "R", "method", "load", "speed", "rolling_resistance", "reference_full3d",
+                    "relative_error", "status"])
+        w.writerow(["", "m", "m", "", "N", "m/s", "N", "N", "-", ""])
+        for cr in rep.cases:
+            items = [("full", cr.reference)] + list(cr.methods.items())
+            for m, r in items:
+                for i, P in enumerate(cr.loads):
+                    for j, V in enumerate(cr.speeds):
+                        ref = cr.reference.values[i, j]
+                        w.writerow([cr.case.key, f"{cr.case.H:g}", f"{cr.case.R:g}", m, f"{P:.8g}", f"{V:.8g}",
+                                    f"{r.values[i, j]:.8g}", f"{ref:.8g}", f"{r.values[i, j] / ref - 1:.6g}",
+                                    int(r.status[i, j])])
+    with open(out / "timing.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["method", "run_per_reference_case", "single_run", "compile", "speed_factor", "points_measured",
+                    "paper_reference_case", "paper_speed_factor"])
+        w.writerow(["", "s", "s", "s", "-", "", "s", "-"])
+        for name, t in rep.timing().items():
+            w.writerow([name, f"{t['per_case_s']:.6g}", f"{t['single_s']:.6g}", f"{t['compile_s']:.6g}",
+                        f"{t['factor']:.6g}", t["points"], PAPER_TIMES[name], PAPER_FACTORS.get(name, 1)])
+    written += [out / "results.csv", out / "timing.csv"]
+
+    # report
+    s = rep.settings
+    env = rep.environment
+    lines = [
+        "# jaxroll reproduce: [ZG]'s examples, every method against the full 3D model",
+        "",
+        f"**Mode: {s.label}.** Cases: {', '.join(cr.case.label for cr in rep.cases)}; "
+        f"{s.n_speeds} log-spaced speeds {s.speed_range[0]:g}..{s.speed_range[1]:g} m/s x {s.n_loads} loads per case. "
+        f"Total wall time {rep.wall_s:.1f} s (compute; figures apart) on {env.get('device')} "
+        f"({env.get('cpus')} CPUs, load average {env.get('load_avg', float('nan')):.1f} at the end), jax {env.get('jax')}.",
+        "",
+        f"Material: standard linear solid G0 = {G0 / 1e6:g} MPa, tau = {TAU:g} s, f = {F:g} ([ZG] eq. 12); "
+        "quasi-static incompressible layer (rho = 0, nu = 0.5); no friction.",
+        f"Reference: full 3D model, period L = {s.period} m, cells a = {s.spacing * 1e3:g} mm, {s.n_terms} Fourier terms "
+        f"per axis (paper: 0.2 m, 0.25 mm, 500). Slices PD/PP/SP: {s.n_slices} slices, 2D period {s.period} m on "
+        f"{s.slice_cells} cells (window {s.slice_window} cells). Direct: aperiodic limit (rtol {s.direct_rtol:g}), "
+        "automatic stationary pressure (Jaffar thick layer, thin layer for 10 um).",
+        "Relative error = method / full 3D - 1 (positive: the method overestimates R_r).",
+        "",
+        "## Timing, in the form of [ZG] Table 1",
+        "",
+        "Measured here: run time per grid point x 345 (the paper's reference case, 23 speeds x 15 loads), "
+        "averaged over the cases where the method applies; compile time is reported apart (total per "
+        "method in this run: paid once per process and grid shape, shared by the cases). The paper's figures are for an Intel i7 M620 (2010).",
+        "",
+        timing_table(rep),
+        "",
+        "## Accuracy against the full 3D model",
+        "",
+        accuracy_table(rep),
+        "",
+    ]
+    for cr in rep.cases:
+        lines += [f"### {cr.case.label} ({cr.case.figure})", ""]
+        lines += [f"![{n[:-4]}]({n})" for n in figs[cr.case.key]]
+        lines.append("")
+        n_bad = int(np.sum(cr.reference.status != 0))
+        if n_bad:
+            lines += [f"Full 3D: {n_bad} grid point(s) did not converge (status != 0).", ""]
+        for m, r in cr.methods.items():
+            nb = int(np.sum(r.status != 0))
+            if nb:
+                lines += [f"{METHOD_NAMES[m]}: {nb} grid point(s) did not converge (status != 0).", ""]
+        if cr.methods:
+            e_v = {m: 100 * np.mean(cr.relative_error(m), axis=0) for m in cr.methods}
+            lines += ["Mean relative error [%] against V (averaged over loads):", "",
+                      "| V [m/s] | " + " | ".join(METHOD_NAMES[m] for m in cr.methods) + " |",
+                      "|---" * (len(cr.methods) + 1) + "|"]
+            for j, V in enumerate(cr.speeds):
+                lines.append(f"| {V:.3g} | " + " | ".join(f"{e_v[m][j]:+.1f}" for m in cr.methods) + " |")
+            e_p = {m: 100 * np.mean(cr.relative_error(m), axis=1) for m in cr.methods}
+            lines += ["", "Mean relative error [%] against P (averaged over speeds):", "",
+                      "| P [N] | " + " | ".join(METHOD_NAMES[m] for m in cr.methods) + " |",
+                      "|---" * (len(cr.methods) + 1) + "|"]
+            for i, P in enumerate(cr.loads):
+                lines.append(f"| {P:g} | " + " | ".join(f"{e_p[m][i]:+.1f}" for m in cr.methods) + " |")
+            lines.append("")
+    lines += ["## Material and pressure fields", "", "![master curves](master_curves.png)", ""]
+    if rep.pressure is not None:
+        pr = rep.pressure
+        lines += [f"Full-model pressures at H = 5 mm, V = {pr['V']:g} m/s (near the R_r peak): the 2D cylinder "
+                  f"(R_r = {pr['cylinder_R']:.3g} N/m) and the 3D sphere (P = {pr['P']:g} N, R_r = {pr['R_r']:.3g} N; "
+                  "white line: contact set outline).", "",
+                  "![2D cylinder pressure](pressure_cylinder.png)", "", "![3D sphere pressure](pressure_sphere.png)", ""]
+    lines += ["Numbers: `results.csv` (every grid point, every method, with the reference and the relative error), "
+              "`timing.csv`.", ""]
+    (out / "report.md").write_text("\n".join(lines))
+    written.insert(0, out / "report.md")
+    return written
+
+
+def reproduce(settings: Settings = FULL, out="jaxroll-reproduce", *, progress=sys.stderr) -> Reproduction:
+    """Run :func:`run` and :func:`write_outputs`; print the accuracy and timing tables to
+    ``progress``."""
+    rep = run(settings, progress=progress)
+    t = time.perf_counter()
+    write_outputs(rep, out)
+    if progress is not None:
+        print(f"figures and report written to {out} ({time.perf_counter() - t:.1f} s)", file=progress)
+    return rep
+
+
+def settings_for(quick: bool, *, cases: Sequence[str] | None = None, methods: Sequence[str] | None = None,
+                 **overrides) -> Settings:
+    """:data:`QUICK` or :data:`FULL` with optional case/method selection and field overrides."""
+    s = QUICK if quick else FULL
+    kw = dict(overrides)
+    if cases is not None:
+        kw["cases"] = tuple(cases)
+    if methods is not None:
+        kw["methods"] = tuple(methods)
+    if kw:
+        s = dataclasses.replace(s, **kw)
+    return s
+
