@@ -66,20 +66,40 @@ def test_exact_halfspace_reduced_resolution(zeta):
     assert float(out["Rr"]) == pytest.approx(_exact(zeta), rel=1e-2)
 
 
-def test_resistance_forms_agree_and_converge():
-    # Moment (1/R) int p x dx and dissipation -int p u' dx: equal in the continuum; on the grid
-    # they differ by the collocation (discretisation) error, which shrinks with the cells.
-    zeta = 1.0
-    V = zeta * A0 / TAU
-    coarse = _solve(_theta(), V)
-    fine = _solve(_theta(), V, cpr=50)
-    d_coarse = abs(float(coarse["Rr_diss"]) / float(coarse["Rr"]) - 1)
-    d_fine = abs(float(fine["Rr_diss"]) / float(fine["Rr"]) - 1)
-    assert d_coarse < 3e-3
-    assert d_fine < 0.5 * d_coarse
+def _forms_gap(cpr, n_cells, zeta=1.0):
+    out = _solve(_theta(), zeta * A0 / TAU, n_cells=n_cells, cpr=cpr)
+    assert int(out["status"]) == 0
+    return float(out["Rr_diss"]) / float(out["Rr"]) - 1.0, float(out["Rr"])
+
+
+def test_resistance_forms_converge_at_second_order():
+    # Moment (1/R) int p x dx and dissipation -int p u' dx (exact for the piecewise-constant
+    # pressure, every alias mode) are equal in the continuum but NOT in the discrete problem:
+    # the gap condition holds at cell centres only, so u' = -x/R is not imposed inside the cells
+    # and the partly loaded edge cells contribute an O(dx^2) relative term (a dissipation form
+    # that agrees exactly, e.g. with a derivative restricted to the contact set, is the moment
+    # form rewritten, not an independent check). So the test proves the gap converges at the
+    # measured order 2 (ratios 4.7, 5.3, 4.1 for cells per half-width 12 -> 25 -> 50 -> 100 at
+    # V tau/a0 = 1, same period; the sign alternates as the edges cross cell centres).
+    gaps = [abs(_forms_gap(cpr, n)[0]) for cpr, n in [(12, 2**13), (25, 2**14), (50, 2**15)]]
+    assert gaps[1] < 3e-3  # 8.3e-4 measured at the default 25 cells per half-width
+    # observed order >= 1.6 on each halving (2.2 and 2.4 measured)
+    assert gaps[0] / gaps[1] > 3.0 and gaps[1] / gaps[2] > 3.0
     # and the finer moment is closer to the exact solution
-    ex = _exact(zeta)
-    assert abs(float(fine["Rr"]) / ex - 1) < abs(float(coarse["Rr"]) / ex - 1)
+    ex = _exact(1.0)
+    assert abs(_forms_gap(50, 2**15)[1] / ex - 1) < abs(_forms_gap(25, 2**14)[1] / ex - 1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("zeta", [0.01, 1.0])
+def test_resistance_forms_gap_order_fine(zeta):
+    # least-squares order of |gap| over 12..100 cells per half-width (same period): measured
+    # 2.2 at V tau/a0 = 1 (3.9e-3 -> 3.8e-5) and 2.9 at 0.01 (1.0e-1 -> 2.5e-4)
+    cprs = np.array([12, 25, 50, 100])
+    gaps = np.array([abs(_forms_gap(int(c), 2**13 * int(2 ** k), zeta)[0]) for k, c in enumerate(cprs)])
+    order = -np.polyfit(np.log(cprs), np.log(gaps), 1)[0]
+    assert order > 1.8
+    assert gaps[-1] < 5e-4
 
 
 def test_hertz_limits():
@@ -94,21 +114,37 @@ def test_hertz_limits():
         assert abs(float(out["Rr"])) * R / (P * A0) < 2e-4  # vs peak value 0.197
 
 
-@pytest.mark.parametrize("ratio, rel", [(0.02, 5e-3), (0.05, 1.5e-2)])
-def test_thin_layer_closed_form(ratio, rel):
-    # Elastic (f = 0) thin incompressible layer: a = (15 P R H^3/(2 G))^(1/5),
-    # p(0) = 15 P/(16 a), d = a^2/(6 R). Tolerances: the closed form is the leading term of an
-    # expansion in H/a; against the exact layer compliance the converged full model differs by
-    # 0.1 % at H/a = 0.02 and 0.9 % (p0) / 1.2 % (d) at H/a = 0.05 (measured at 25, 50 and
-    # 100 cells per half-width), so 0.5 % holds at H/a = 0.02, not at 0.05.
+def _thin_layer_errors(ratio):
+    """Relative errors of the full model's p(0) and d against the thin-layer closed form."""
     H = ratio * np.sqrt(15 * ratio**3 * P * R / (2 * G0))  # so that H/a = ratio exactly
     a = float(ref.thin_layer_cylinder(P, R, H, G0))
     assert H / a == pytest.approx(ratio, rel=1e-6)
     res = cy.rolling_resistance_full(jr.StandardLinearSolid(G0, TAU, 0.0), jr.Layer(H), R, P, 0.0)
     assert int(res.status) == 0
-    assert float(res.pressure.max()) == pytest.approx(15 * P / (16 * a), rel=rel)
-    assert float(res.penetration) == pytest.approx(a * a / (6 * R), rel=rel)
     assert float(res.value) == 0.0 or abs(float(res.value)) * R / (P * a) < 1e-12  # elastic
+    return (float(res.pressure.max()) / (15 * P / (16 * a)) - 1, float(res.penetration) / (a * a / (6 * R)) - 1)
+
+
+def test_thin_layer_closed_form_error_is_second_order_in_H_over_a():
+    # Elastic (f = 0) thin incompressible layer: a = (15 P R H^3/(2 G))^(1/5),
+    # p(0) = 15 P/(16 a), d = a^2/(6 R), the leading term of an expansion in H/a whose first
+    # correction is O((H/a)^2) relative. Measured at the default resolution (converged to
+    # < 6e-4): d err -1.5e-3 / -4.4e-3 / -1.23e-2 / -4.4e-2 at H/a = 0.02 / 0.03 / 0.05 / 0.1
+    # (p0: +1.2e-3 / +3.1e-3 / +8.9e-3 / +3.5e-2), i.e. order 2.0-2.3. So "0.5 % at H/a <= 0.05"
+    # is unattainable physically; 0.5 % holds for H/a <= 0.03 (test_thin_layer_closed_form).
+    e05, e10 = _thin_layer_errors(0.05), _thin_layer_errors(0.1)
+    for k in range(2):
+        order = np.log(abs(e10[k]) / abs(e05[k])) / np.log(2.0)
+        assert 1.7 < order < 2.4, (k, order)  # 1.98 (p0), 1.85 (d) measured
+        assert abs(e05[k]) < 1.5e-2  # the closed form's own O((H/a)^2) error at H/a = 0.05
+
+
+@pytest.mark.parametrize("ratio", [0.02, 0.03])
+def test_thin_layer_closed_form(ratio):
+    # the closed form within 0.5 % where its O((H/a)^2) error allows (see above: 0.16 % and
+    # 0.44 % measured for the worse of p0 and d)
+    for err in _thin_layer_errors(ratio):
+        assert abs(err) < 5e-3
 
 
 def test_direct_method_agrees_as_f_to_zero():
@@ -124,6 +160,46 @@ def test_direct_method_agrees_as_f_to_zero():
     out = _solve(_theta(f=f), V)
     # tolerance: O(f) = 1 % model difference + 0.5 % discretisation
     assert float(out["Rr"]) == pytest.approx(float(direct.value), rel=2e-2)
+
+
+@pytest.mark.parametrize("H, nu", [(2e-5, 0.5), (3 * A0, 0.3)])
+def test_compliance_function_matches_layer_module(H, nu):
+    # cylinder.compliance_function (factorised quasi-static form, custom forward-mode
+    # derivative, half-space branch where all q H >= 40) against jaxroll.layer.surface_compliance
+    # and its plain reverse-mode gradient, under jit (rho traced: branch chosen by lax.cond) and
+    # eagerly (rho concrete). q H spans 0..~1e4; the image-like call has all q H >= 40 unless
+    # the layer is thin (H = 2e-5: the layer branch).
+    q_base = jnp.asarray(np.concatenate([[0.0], np.geomspace(1.0, 3e6, 40)]) * np.sign(np.linspace(-1, 1, 41)))
+    q_img = jnp.asarray(np.geomspace(2e5, 3e6, 9))
+
+    def both(theta, q, k):
+        G, tau, f, h, V = theta
+        mat, layer = jr.StandardLinearSolid(G, tau, f), jr.Layer(h, nu=nu)
+        if k == 0:
+            return cy.compliance_function(mat, layer, V)(q)
+        # oracle: the quasi-static path of jaxroll.layer.surface_compliance (taken there for a
+        # concrete rho = 0), differentiated by plain reverse mode
+        G_m = jnp.conj(jr.complex_modulus(mat, q * V))
+        return jr.layer.static_compliance(layer, jnp.abs(q)).astype(complex) / G_m
+
+    def scalar(theta, q, k):
+        t = both(theta, q, k)
+        w = jnp.cos(jnp.arange(q.shape[0], dtype=float))
+        return (jnp.sum(w * jnp.real(t)) + jnp.sum(w * jnp.imag(t))) * G0 / A0
+
+    vg = jax.jit(jax.value_and_grad(scalar), static_argnums=2)
+    theta = jnp.asarray([G0, TAU, F, H, 0.01])
+    for q in (q_base, q_img):
+        (v_mine, g_mine), (v_oracle, g_oracle) = vg(theta, q, 0), vg(theta, q, 1)
+        # tolerance: rounding (same closed forms; the half-space branch differs by e^{-80})
+        assert float(v_mine) == pytest.approx(float(v_oracle), rel=1e-12)
+        # tolerance: rounding of the two derivative formulas (dT/dH from T_1 = H psi(qH))
+        np.testing.assert_allclose(np.asarray(g_mine), np.asarray(g_oracle), rtol=1e-9,
+                                   atol=1e-12 * float(np.abs(g_oracle).max()))
+    # eagerly (concrete rho: no lax.cond) against surface_compliance itself
+    mat, layer = jr.StandardLinearSolid(G0, TAU, F), jr.Layer(H, nu=nu)
+    eager = np.asarray(cy.compliance_function(mat, layer, 0.01)(q_base))
+    np.testing.assert_allclose(eager, np.asarray(jr.layer.surface_compliance(layer, mat, q_base, 0.0, 0.01)), rtol=1e-12)
 
 
 @pytest.mark.parametrize("zeta", [0.3, 1.0, 3.0])
@@ -166,6 +242,13 @@ def test_public_result_and_bad_input():
     assert int(res.regime) == 4 and bool(res.valid) and int(res.status) == 0
     assert float(res.value) == pytest.approx(_exact(1.0), rel=1e-2)
     assert float(res.truncation) < 3e-3
+    # static_resolution: the eager grid, reusable under jit (traced inputs, layer built inside)
+    opts = cy.static_resolution(mat, jr.Layer(jnp.inf), R, P, A0 / TAU)
+    assert opts == {"n_cells": 2048, "cells_per_radius": 25}  # N a0/25 >= 20 * 4 a0 -> N = 2^11
+    jitted = jax.jit(lambda G, v: cy.rolling_resistance_full(jr.StandardLinearSolid(G, TAU, F), jr.Layer(jnp.inf), R, P,
+                                                             v, **opts).value)
+    # tolerance: rounding / solver tolerance (same grid, same contact set)
+    assert float(jitted(G0, A0 / TAU)) == pytest.approx(float(res.value), rel=1e-9)
     with pytest.raises(eqx.EquinoxRuntimeError, match="load"):
         cy.rolling_resistance_full(mat, jr.Layer(jnp.inf), R, -P, 0.01)
     with pytest.raises(ValueError, match="scalar"):
