@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, to_complex as _c, where_safe
+from ._numerics import as_float, check_x64, to_complex as _c, where_safe
 from .material import _leaf, _require, complex_modulus, relaxed_modulus
 
 __all__ = [
@@ -59,6 +59,25 @@ __all__ = [
     "transfer_incompressible",
     "transfer_compressible",
 ]
+
+
+def _density(x):
+    """Converter of ``Layer.rho``: a concrete number stays a NumPy float64 array.
+
+    ``jnp.asarray`` of a literal inside ``jit`` is staged as a tracer, so a ``Layer(H)`` built
+    in traced code (``jax.grad(lambda H: ... jr.Layer(H) ...)``) would no longer *know* that its
+    default ``rho = 0``: :func:`is_quasistatic` would be False and every compliance evaluation
+    would take the general path with inertia (~5x the cost, ~10x under reverse mode). A NumPy
+    array is a constant at trace time; traced and JAX inputs are converted as usual.
+    """
+    if isinstance(x, (bool, np.bool_)):
+        return _leaf(x)
+    if isinstance(x, (int, float, np.integer, np.floating)) or (
+        isinstance(x, np.ndarray) and np.issubdtype(x.dtype, np.number)
+    ):
+        check_x64()
+        return np.asarray(x, dtype=np.float64)
+    return _leaf(x)
 
 
 class Layer(eqx.Module):
@@ -73,7 +92,7 @@ class Layer(eqx.Module):
     """
 
     H: jax.Array = eqx.field(converter=_leaf)
-    rho: jax.Array = eqx.field(converter=_leaf, default=0.0)
+    rho: jax.Array = eqx.field(converter=_density, default=0.0)
     nu: float = eqx.field(static=True, default=0.5)
 
     def __check_init__(self):
