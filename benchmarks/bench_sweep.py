@@ -97,8 +97,7 @@ def workload_series(n, args):
 # Each returns (fn, grid, description) with fn(point) -> scalar; a workload that raises is
 # reported as "unavailable: <error>". Issue 9 targets: direct >= 1e6 points
 # (--workloads direct --points 1000000: ~1 min per device count here), full 2D >= 1e4 points
-# (--workloads full2d --points 10000: ~1 h per device count on these 2 shared cores at ~3
-# points/s; run it on a bigger machine or a GPU).
+# (--workloads full2d --points 10000).
 
 
 def workload_direct(n, args):
@@ -127,20 +126,21 @@ def workload_full2d(n, args):
 
     import jaxroll as jr
 
-    grid = jr.Grid(V=jnp.logspace(-4.0, 0.0, max(1, n // 15 + (n % 15 > 0))), P=jnp.linspace(1e3, 1e4, min(n, 15)))
+    # Static grid (inside a sweep the inputs are traced, so the automatic resolution cannot be
+    # read from them): 25 cells per relaxed Hertz half-width and 2^14 period cells, i.e. a
+    # period of 655 a0 >= 20 max(4 a0, V tau) for every point of this grid (V tau <= 25 mm,
+    # a0 >= 1.5 mm), the resolution an eager call chooses (jaxroll.cylinder.static_resolution).
+    n_v = max(1, n // 15 + (n % 15 > 0))
+    grid = jr.Grid(V=jnp.logspace(-4.0, -1.0, n_v), P=jnp.linspace(1e3, 1e4, min(n, 15)))
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
     layer = jr.Layer(5e-3)
-    if hasattr(jr, "rolling_resistance"):
-        def fn(p):
-            return jr.rolling_resistance(mat, layer, radius=0.02, load=p.P, speed=p.V,
-                                         geometry="cylinder", method="full").value
-        desc = "jaxroll.rolling_resistance(geometry='cylinder', method='full'), H = 5 mm, P' 1-10 kN/m"
-    else:
-        from jaxroll.cylinder import rolling_resistance_full
 
-        def fn(p):
-            return rolling_resistance_full(mat, layer, 0.02, p.P, p.V).value
-        desc = "jaxroll.cylinder.rolling_resistance_full (P' in N/m)"
+    def fn(p):
+        return jr.rolling_resistance(mat, layer, radius=0.02, load=p.P, speed=p.V, geometry="cylinder",
+                                     method="full", n_cells=2**14, cells_per_radius=25).value
+
+    desc = ("jaxroll.rolling_resistance(geometry='cylinder', method='full'), H = 5 mm, P' 1-10 kN/m, "
+            "V 1e-4..0.1 m/s, 2^14 period cells, 25 cells per half-width")
     return fn, grid, desc
 
 
@@ -250,7 +250,7 @@ def run_strategies(args) -> None:
     # reverse mode: d/dG0 of the sum over the sweep, with and without jax.checkpoint per chunk
     R, L, M = 0.02, 0.2, args.strategy_modes
     q = 2 * jnp.pi * jnp.arange(1, M + 1) / L
-    print(f"\nGradient d(sum R_r)/dG0 through sweep (chunk_size=16, 1 device), same workload")
+    print("\nGradient d(sum R_r)/dG0 through sweep (chunk_size=16, 1 device), same workload")
     print(f"{'checkpoint':<34}{'compile s':>10}{'run s':>9}{'points/s':>11}{'temp MiB':>10}")
     for cp in (False, True):
         def loss(G0, cp=cp):
