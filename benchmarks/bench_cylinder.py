@@ -9,8 +9,8 @@ Reports (CPU, float64): compile time apart from run time, medians of repeated ru
 * the 23 x 15 reference sweep (23 log-spaced speeds 1e-4..1 m/s, 15 loads 1e3..1e4 N/m) with
   lax.map, static resolution (25 cells per half-width, 2^17 cells per period);
 * value_and_grad vs value (target <= 3x);
-  (the layer is built inside jit, so its density is traced: jaxroll.cylinder.compliance_function
-  then picks the quasi-static factorised path with lax.cond at run time);
+  (the layer is built inside jit; its literal density rho = 0 stays a trace-time constant, so
+  jaxroll.cylinder.compliance_function takes the quasi-static factorised path);
 * a plain NumPy/SciPy baseline on the same grid: the dense window compliance matrix built from
   the same exact kernel (NumPy FFT) and a dense primal-dual active-set solver
   (numpy.linalg.solve), and the speed-up ratio.
