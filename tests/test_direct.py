@@ -1,9 +1,7 @@
 """Direct Fourier-series rolling resistance ([ZG] sec. 4) and the public entry point."""
 
 import functools
-import math
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -11,7 +9,7 @@ import pytest
 import scipy.special as ss
 
 import jaxroll as jr
-from jaxroll.direct import QuadratureSettings, settings_for_rtol
+from jaxroll.direct import settings_for_rtol
 
 MAT = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 R = 0.02

@@ -1,7 +1,6 @@
 """Every notebook in notebooks/ executes top to bottom (reduced resolution via
 JAXROLL_NOTEBOOK_QUICK=1) in a temporary folder; the source notebooks stay unexecuted."""
 
-import os
 import shutil
 from pathlib import Path
 
