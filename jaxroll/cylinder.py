@@ -123,76 +123,32 @@ def _auto_cells_per_radius(zeta):
     return 100
 
 
-def _static_part(q, H, nu):
-    """``T_1(q) = G T(q)`` [m] of a quasi-static layer (:func:`jaxroll.layer.static_compliance`)
-    with a forward-mode derivative rule.
-
-    The kernel evaluates ``T`` on ~``(2M+2) N/2`` wavenumbers; reverse-mode differentiation
-    of that elementwise chain stores every intermediate (memory-bound, ~10x the value). Here the
-    derivative is formed in the forward pass as two elementwise arrays: ``dT_1/dq`` by one
-    forward-mode pass, and ``dT_1/dH`` from dimensional analysis, ``T_1 = H psi(qH)`` for any
-    layer, so ``H dT_1/dH = T_1 + q dT_1/dq`` (0 for the half-space). Exact, differentiable
-    again (the rule is itself traced by JAX). Measured on 2.6e5 wavenumbers: gradient 6x the
-    value with the rule, 13x without.
-    """
-
-    def t1(q, H):
-        return static_compliance(Layer(H, nu=nu), q)
-
-    @jax.custom_jvp
-    def f(q, H):
-        return t1(q, H)
-
-    @f.defjvp
-    def _jvp(primals, tangents):
-        q, H = primals
-        dq, dH = tangents
-        out, jac_q = jax.jvp(lambda qq: t1(qq, H), (q,), (jnp.ones_like(q),))
-        finite = jnp.isfinite(H)
-        jac_H = jnp.where(finite, (out + q * jac_q) / jnp.where(finite, H, 1.0), 0.0)
-        return out, jac_q * dq + jac_H * dH
-
-    return f(q, H)
-
-
-def _halfspace_part(q, nu):
-    """``T_1 = (1 - nu)/q`` of a half-space (0 at ``q = 0``)."""
-    pos = q > 0
-    return jnp.where(pos, (1.0 - nu) / jnp.where(pos, q, 1.0), 0.0)
-
-
 def compliance_function(material, layer: Layer, V):
     """Plane-strain surface compliance ``T(q)`` [m/Pa] of ``layer`` at speed ``V`` as a function
     of the wavenumber ``q`` [rad/m] (the input of :func:`jaxroll.contact.periodic_kernel`).
 
     Same values as ``surface_compliance(layer, material, q, 0, V)``. Without inertia
     (``rho = 0``) the compliance factorises exactly, ``T = T_1(|q|)/G_m(q V)``
-    (:func:`jaxroll.layer.static_compliance`), which is evaluated directly with a forward-mode
-    derivative rule for the layer factor (see ``_static_part``). A traced ``rho`` (e.g. a
-    :class:`~jaxroll.layer.Layer` built inside ``jit``) selects the branch at run time with
-    ``lax.cond``: the general path (inertia) costs ~5x more per wavenumber and ~10x more
-    under reverse-mode differentiation.
+    (:func:`jaxroll.layer.static_compliance`, with its forward-mode derivative rule); the
+    kernel's image wavenumbers (all ``|q| >= pi/dx``) take the half-space ``T_1`` when every
+    ``|q| H >= 40`` (the layer correction is ~e^{-2 q H}). With inertia (``rho > 0`` or a traced
+    ``rho``) this is ``surface_compliance`` itself.
     """
-    H, nu = as_float(layer.H), layer.nu
-
-    def general(q):
-        return surface_compliance(layer, material, q, 0.0, V)
+    if not (layer.nu < 0.5 or is_quasistatic(layer)):  # compressible layers are quasi-static in jaxroll
+        return lambda q: surface_compliance(layer, material, q, 0.0, V)
+    H = as_float(layer.H)
+    halfspace = Layer(jnp.inf, nu=layer.nu)
 
     def static(q):
         G = jnp.conj(complex_modulus(material, q * V))
         qa = jnp.abs(q)
-        # where every |q| H >= 40 the layer factor is the half-space one to rounding (the layer
-        # correction is ~e^{-2 q H}); lax.cond runs only the branch taken (both under a batched
-        # predicate in vmap)
+        # lax.cond runs only the branch taken (both under a batched predicate in vmap)
         deep = ~jnp.isfinite(H) | (jnp.min(qa) * jnp.where(jnp.isfinite(H), H, 1.0) >= 40.0)
-        t1 = jax.lax.cond(deep, lambda qq: _halfspace_part(qq, nu), lambda qq: _static_part(qq, H, nu), qa)
+        t1 = jax.lax.cond(deep, lambda qq: static_compliance(halfspace, qq),
+                          lambda qq: static_compliance(layer, qq), qa)
         return to_complex(t1) / G
 
-    if nu < 0.5 or is_quasistatic(layer):  # compressible layers are quasi-static in jaxroll
-        return static
-    if not isinstance(layer.rho, jax.core.Tracer):
-        return general
-    return lambda q: jax.lax.cond(jnp.all(layer.rho == 0.0), static, general, q)
+    return static
 
 
 def _next_pow2(n):

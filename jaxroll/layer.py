@@ -42,6 +42,8 @@ Against a 50-digit ``expm`` of eq. 22 the relative error is below ~1e-13 for ``q
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -246,11 +248,20 @@ def static_compliance(layer: Layer, q) -> jax.Array:
     ``(1-nu)/q`` for half-spaces, and ``T_1(0) = 0`` (oedometric ``H (1-2nu)/(2(1-nu))`` for
     ``nu < 0.5``). Methods that evaluate many speeds or materials on one wavenumber grid compute
     ``T_1`` once and divide by ``G_m``.
+
+    Derivatives come from a forward-mode rule: callers evaluate ``T_1`` on 1e5-1e6 wavenumbers,
+    and reverse-mode differentiation of the elementwise chain stores every intermediate
+    (memory-bound, ~10x the value). The rule forms ``dT_1/dq`` by one forward-mode pass and
+    ``dT_1/dH`` from dimensional analysis, ``T_1 = H psi(qH)`` for every layer, so
+    ``H dT_1/dH = T_1 + q dT_1/dq`` (0 for the half-space). Exact and differentiable again.
+    Measured on 2.6e5 wavenumbers: gradient 6x the value with the rule, 13x without.
     """
-    q = as_float(q)
-    H = layer.H
-    if layer.nu < 0.5:
-        return jnp.real(transfer_compressible(q, H, jnp.ones((), jnp.complex128), layer.nu))
+    return _static_t1(as_float(q), as_float(layer.H), layer.nu)
+
+
+def _static_t1_plain(q, H, nu):
+    if nu < 0.5:
+        return jnp.real(transfer_compressible(q, H, jnp.ones((), jnp.complex128), nu))
     halfspace = jnp.isinf(H)
     Hf = where_safe(halfspace, 1.0, H)
     a = where_safe(halfspace, 1.0, q * Hf)
@@ -260,6 +271,21 @@ def static_compliance(layer: Layer, q) -> jax.Array:
     q_pos = q > 0
     t_half = jnp.where(q_pos, 0.5 / where_safe(q_pos, q, 1.0), 0.0)
     return jnp.where(halfspace, t_half, t_layer)
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(2,))
+def _static_t1(q, H, nu):
+    return _static_t1_plain(q, H, nu)
+
+
+@_static_t1.defjvp
+def _static_t1_jvp(nu, primals, tangents):
+    q, H = primals
+    dq, dH = tangents
+    out, jac_q = jax.jvp(lambda qq: _static_t1_plain(qq, H, nu), (q,), (jnp.ones_like(q),))
+    finite = jnp.isfinite(H)
+    jac_H = jnp.where(finite, (out + q * jac_q) / where_safe(finite, H, 1.0), 0.0)
+    return out, jac_q * dq + jac_H * dH
 
 
 def is_quasistatic(layer: Layer) -> bool:
