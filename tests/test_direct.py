@@ -335,23 +335,31 @@ def _err(modulus, f, zetas):
 
 
 TABLE_ZETAS = (0.01, 0.1, 0.3, 1.0, 3.0, 10.0, 100.0)
-# direct/exact - 1 for f = 1 (measured; the peak of R_r is at zeta = 1.087):
-#   radius from the static modulus (default): underestimates, worst near the peak;
-#   glassy modulus: overestimates at low speed (radius too small), exact as zeta -> inf;
-#   "dynamic" (G'(V/r_static)): halves the error near the peak, does not close it.
-DIRECT_ERROR = {
-    "static": (-0.00252, -0.02680, -0.08724, -0.18805, -0.16223, -0.11238, -0.06515),
-    "glassy": (0.98662, 0.85839, 0.56395, 0.12464, 0.01520, 0.00135, 0.00001),
-    "dynamic": (-0.00249, -0.02450, -0.07094, -0.11055, -0.02815, -0.00185, -0.00001),
-}
 
 
-@pytest.mark.parametrize("modulus", ["static", "glassy", "dynamic"])
-def test_direct_error_vs_exact_cylinder(modulus):
-    # oracle: the exact solution; tolerance: rounding of the table (5e-6) + quadrature (1e-6)
-    err = _err(modulus, 1.0, TABLE_ZETAS)
-    print(f"\n{modulus}: " + " ".join(f"{z:g}: {e:+.5f}" for z, e in zip(TABLE_ZETAS, err)))
-    np.testing.assert_allclose(err, DIRECT_ERROR[modulus], rtol=0, atol=2e-5)
+def test_direct_error_vs_exact_cylinder():
+    # oracle: the exact solution. Measured (f = 1; printed for the record, not asserted as numbers
+    # taken from this code): static radius -0.3 / -2.7 / -8.7 / -18.8 / -16.2 / -11.2 / -6.5 %,
+    # glassy +98.7 / +85.8 / +56.4 / +12.5 / +1.5 / +0.1 / +0.0 %, dynamic -0.2 / -2.5 / -7.1 /
+    # -11.1 / -2.8 / -0.2 / -0.0 % at the zetas above. What physics fixes independently:
+    err = {m: _err(m, 1.0, TABLE_ZETAS) for m in ("static", "glassy", "dynamic")}
+    for m, e in err.items():
+        print(f"\n{m}: " + " ".join(f"{z:g}: {v:+.5f}" for z, v in zip(TABLE_ZETAS, e)))
+    z = np.asarray(TABLE_ZETAS)
+    # static radius: the real contact narrows and shifts forward as the material stiffens, so the
+    # stationary Hertz pressure on the relaxed radius underestimates at every speed, most where
+    # the redistribution is largest, around the R_r peak (zeta = 1.087)
+    assert np.all(err["static"] < 0)
+    assert 0.3 <= z[np.argmax(np.abs(err["static"]))] <= 3.0
+    # glassy radius: too small at low speed; the direct R_r ~ P'^2 dJ V tau/(pi a^2) there, so the
+    # error tends to (a0/a_g)^2 - 1 = f (checked at zeta = 1e-3, O(zeta) remainder 1.5e-3 there,
+    # quadrature 1e-6); positive and falling to 0 as the exact contact becomes the glassy Hertz one
+    assert float(_err("glassy", 1.0, [1e-3])[0]) == pytest.approx(1.0, abs=5e-3)
+    assert np.all(err["glassy"] > -2e-5) and np.all(np.diff(err["glassy"]) < 0)
+    # dynamic radius (G' at the rolling frequency) lies between the static and glassy radii, so
+    # its error is bounded by the static one and vanishes at both speed limits
+    assert np.all(np.abs(err["dynamic"]) <= np.abs(err["static"]) + 2e-5)
+    assert abs(err["dynamic"][-1]) < 1e-3 and abs(err["dynamic"][0]) < 5e-3
 
 
 def test_direct_error_low_speed_asymptote():
