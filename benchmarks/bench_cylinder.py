@@ -30,21 +30,10 @@ import jaxroll as jr
 from jaxroll import cylinder as cy
 from jaxroll import reference as ref
 
+from _timing import timed
+
 G0, TAU, F, R, H = 3e6, 0.25, 1.0, 0.02, 5e-3
 N_SWEEP, CPR = 2**17, 25
-
-
-def timed(fn, *args, repeat=5):
-    """(compile+first-run seconds, median run seconds, output)."""
-    t = time.perf_counter()
-    out = jax.block_until_ready(fn(*args))
-    first = time.perf_counter() - t
-    runs = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = jax.block_until_ready(fn(*args))
-        runs.append(time.perf_counter() - t)
-    return first, statistics.median(runs), out
 
 
 def rr(theta, V, n_cells=N_SWEEP):

@@ -30,6 +30,8 @@ import numpy as np
 import jaxroll as jr
 from jaxroll.direct import settings_for_rtol
 
+from _timing import timed
+
 G0, TAU, F = 3e6, 0.25, 1.0
 R, H, L = 0.02, 30e-3, 0.2
 MAT = jr.StandardLinearSolid(G0, TAU, F)
@@ -75,18 +77,6 @@ def numpy_eq37(N=50):
     return run
 
 
-def timed(fn, args, repeats):
-    t0 = time.perf_counter()
-    out = jax.block_until_ready(fn(*args))
-    first = time.perf_counter() - t0
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn(*args))
-        ts.append(time.perf_counter() - t0)
-    return out, first, statistics.median(ts)
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=5)
@@ -116,7 +106,7 @@ def main():
                      ("aperiodic rtol 1e-4", dict(rtol=1e-4)),
                      ("aperiodic rtol 1e-3", dict(rtol=1e-3))]:
         fn = jax_case(**kw)
-        out, first, med = timed(fn, (Vs, Ps), args.repeats if "500" not in name else max(1, args.repeats // 2))
+        first, med, out = timed(fn, Vs, Ps, repeat=args.repeats if "500" not in name else max(1, args.repeats // 2))
         err = np.abs(np.asarray(out) / ref - 1)
         rows.append((name, first - med, med, float(err.max()), float(np.median(err)), t_np / med))
     err_np = np.abs(np_out / ref - 1)
