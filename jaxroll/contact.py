@@ -65,6 +65,23 @@ system, so derivatives of any functional of the solution follow from the implici
 theorem (one adjoint GMRES solve), never from unrolling the active-set iterations (which run
 on ``stop_gradient`` inputs). The contact set is piecewise constant in the parameters; at a
 contact-edge event the derivative is the finite one-sided derivative of the discrete problem.
+
+Smoothed contact edge (``smoothing=eps``)
+-----------------------------------------
+Because the contact set changes by whole cells, any functional of the exact discrete solution
+(e.g. the rolling resistance) is only piecewise smooth: it wiggles around its continuum value
+with a kink at every contact-set change (0.2-0.3 % for a 3D sphere at 9-23 cells per contact
+radius). Least-squares fits along nearly degenerate parameter valleys stall on such wiggles.
+With ``smoothing`` the complementarity ``min(c0 p, g) = 0`` becomes the log-sum-exp soft
+minimum ``exp(-c0 p/eps) + exp(-g/eps) = 1``: a cell enters the contact gradually, the solution
+is C-infinity in the parameters, and it is found by damped Newton (Armijo on the residual) from
+the exact active-set solution, each step a GMRES solve on the whole window with the soft-min
+weights (the active-set system is the special case of 0/1 weights). Derivatives: one extra
+Newton correction whose right-hand side carries the parameter dependence, through
+:func:`jax.lax.custom_linear_solve` (implicit function theorem). The price is a bias: the soft
+edge lets cells with a small gap carry load; the 3D rolling resistance falls by ~1 % on
+average at the smoothing used for fits (see :func:`jaxroll.sphere3d.solve_sphere`,
+``edge_smoothing``), and the bias vanishes with ``eps``.
 """
 
 from __future__ import annotations
@@ -284,7 +301,8 @@ class ContactSolution(eqx.Module):
     Attributes:
         pressure: contact pressure [Pa] on the window cells.
         penetration: rigid-body penetration ``d`` [m].
-        contact: boolean contact set (cells with ``g = 0``).
+        contact: boolean contact set (cells with ``g = 0``; with ``smoothing``, the cells
+            where ``c0 p > g``).
         gap: gap ``h - d + C p`` [m] (0 on the contact set).
         displacement: surface displacement ``C p`` [m] (zero-mean periodic part).
         iterations: active-set iterations.
@@ -320,6 +338,7 @@ def solve_contact(
     linear_restart: int = 80,
     linear_maxiter: int = 20,
     linear_method: str = "incremental",
+    smoothing=None,
     throw: bool = True,
 ) -> "ContactSolution":
     """Solve frictionless steady-state rolling contact of a rigid profile (any dimension).
@@ -338,6 +357,20 @@ def solve_contact(
         max_steps: static maximum number of active-set iterations.
         linear_restart, linear_maxiter, linear_method: GMRES Krylov size, restarts and
             ``solve_method`` per linear solve.
+        smoothing: ``None`` (default: the exact complementarity above) or a gap scale
+            ``eps`` [m] > 0 (traced allowed) for the *smoothed contact edge*: the condition
+            ``min(c0 p, g) = 0`` (``c0`` = self compliance, so ``c0 p`` is the gap the cell's
+            own pressure closes) is replaced by ``exp(-c0 p/eps) + exp(-g/eps) = 1``, i.e.
+            ``smin_eps(c0 p, g) = 0`` with the log-sum-exp soft minimum. Cells whose gap or
+            ``c0 p`` is below ~``eps`` share the load partially, so a cell enters the contact
+            gradually as the parameters change: the solution is then a smooth (C-infinity)
+            function of the compliance, profile and load instead of a piecewise smooth one
+            with a kink at every contact-set change (what makes least-squares fits on the
+            discrete model stall). Outside the contact the pressure decays like
+            ``(eps/c0) exp(-g/eps)``. The exact solution is recovered as ``eps -> 0`` (the
+            smoothed and exact problems differ by ``O(eps)`` in ``d`` and at the edge cells).
+            Solved by damped Newton on the smoothed equations, started from the exact
+            (active-set) solution.
         throw: raise (``eqx.error_if``) on failure if True; otherwise report it in ``status``.
 
     Returns:
@@ -353,12 +386,16 @@ def solve_contact(
     initial_contact = jnp.asarray(initial_contact, bool)
     if initial_contact.shape != h.shape:
         raise ValueError("initial_contact must have the window shape")
+    if smoothing is not None:
+        smoothing = eqx.error_if(jnp.asarray(smoothing, dtype=float), ~(jnp.asarray(smoothing) > 0),
+                                 "smoothing must be a positive gap scale [m] (or None)")
     return _solve_contact(
         compliance,
         h,
         jnp.asarray(load, dtype=float),
         jnp.asarray(cell_area, dtype=float),
         initial_contact,
+        smoothing,
         tol=tol,
         max_steps=max_steps,
         linear_restart=linear_restart,
@@ -375,6 +412,7 @@ def _solve_contact(
     load,
     cell_area,
     initial_contact,
+    smoothing,
     *,
     tol: float = 1e-10,
     max_steps: int = 50,
@@ -446,16 +484,75 @@ def _solve_contact(
     mask = sg(mask)
     x_ng = sg(x_ng)
 
-    # ---- differentiable solution on the converged contact set (implicit function theorem) ----
-    mv = make_matvec(compliance, mask, load_w)
-    b = rhs(h, mask, load / sg(load))
+    if smoothing is None:
+        # ---- differentiable solution on the converged contact set (implicit function theorem) ----
+        mv = make_matvec(compliance, mask, load_w)
+        b = rhs(h, mask, load / sg(load))
 
-    x = jax.lax.custom_linear_solve(
-        mv,
-        b,
-        solve=lambda f, bb: lin_solve(f, bb, x_ng),
-        transpose_solve=lambda f, bb: lin_solve(f, bb, None),
-    )
+        x = jax.lax.custom_linear_solve(
+            mv,
+            b,
+            solve=lambda f, bb: lin_solve(f, bb, x_ng),
+            transpose_solve=lambda f, bb: lin_solve(f, bb, None),
+        )
+    else:
+        # ---- smoothed contact edge: damped Newton on smin_eps(c0 p, g) = 0 from the exact solution ----
+        # scaled variables as above (p~ = p/p_s, g~ = g/g_s, c0 p/g_s = p~); eps~ = eps/g_s
+        eps_t = smoothing / g_s
+        c0_ratio = jnp.abs(compliance.self_compliance) / c0  # 1, carries the derivative of c0
+
+        def smoothed_residual(x, C, hh, ratio, eps, lw, target):
+            pt = x[:-1].reshape(shape)
+            gt = hh / g_s - x[-1] + C(pt) * (p_s / g_s)
+            a = ratio * pt
+            F = -eps * jnp.logaddexp(-a / eps, -gt / eps)
+            return jnp.concatenate([F.ravel(), (lw * jnp.sum(pt) - target)[None]]), a, gt
+
+        eps_ng = sg(eps_t)
+
+        def residual_ng(x):
+            return smoothed_residual(x, C_ng, h_ng, 1.0, eps_ng, lw_ng, 1.0)
+
+        def jacobian_matvec(a, gt):
+            w_a = jax.nn.sigmoid((gt - a) / eps_ng)  # d smin / d a; d smin / d g = 1 - w_a
+
+            def matvec(v):
+                vp = v[:-1].reshape(shape)
+                rows = w_a * vp + (1.0 - w_a) * (C_ng(vp) * (p_s / g_s) - v[-1])
+                return jnp.concatenate([rows.ravel(), (lw_ng * jnp.sum(vp))[None]])
+
+            return matvec
+
+        alphas = 0.5 ** jnp.arange(10.0)
+
+        def newton(state):
+            x, it, _, _ = state
+            F, a, gt = residual_ng(x)
+            step = lin_solve(jacobian_matvec(a, gt), -F, None)
+            merit = jax.vmap(lambda al: jnp.sum(residual_ng(x + al * step)[0] ** 2))(alphas)
+            ok = merit <= (1.0 - 1e-4 * alphas) * jnp.sum(F * F)  # Armijo on |F|^2
+            k = jnp.where(jnp.any(ok), jnp.argmax(ok), alphas.size - 1)
+            x = x + alphas[k] * step
+            Fn = residual_ng(x)[0]
+            fn = jnp.max(jnp.abs(Fn))
+            return x, it + 1, (fn <= tol) | ~jnp.all(jnp.isfinite(x)), fn
+
+        x_s, n_it, n_done, _ = jax.lax.while_loop(
+            lambda s: (~s[2]) & (s[1] < max_steps), newton,
+            (x_ng, jnp.asarray(0), jnp.asarray(False), jnp.asarray(jnp.inf)),
+        )
+        x_s = sg(x_s)
+        # differentiable: one Newton correction whose right-hand side carries the parameter
+        # dependence (implicit function theorem: dx = -J^{-1} dF; the value is unchanged to tol)
+        F_theta, _, _ = smoothed_residual(x_s, compliance, h, c0_ratio, eps_t, load_w, load / sg(load))
+        _, a_s, gt_s = residual_ng(x_s)
+        x = x_s + jax.lax.custom_linear_solve(
+            jacobian_matvec(a_s, gt_s),
+            -F_theta,
+            solve=lambda f, bb: lin_solve(f, bb, None),
+            transpose_solve=lambda f, bb: lin_solve(f, bb, None),
+        )
+
     pt = x[:-1].reshape(shape)
     p = pt * p_s
     d = x[-1] * g_s
@@ -463,10 +560,16 @@ def _solve_contact(
     g = h - d + u
 
     # ---- diagnostics ----
-    gt = g / g_s
-    comp = jnp.max(jnp.abs(jnp.minimum(pt, gt)))
-    lin_res = jnp.max(jnp.abs(sg(mv(x) - b)))
-    residual = sg(jnp.maximum(comp, lin_res))
+    if smoothing is None:
+        comp = jnp.max(jnp.abs(jnp.minimum(pt, g / g_s)))
+        lin_res = jnp.max(jnp.abs(sg(mv(x) - b)))
+        residual = sg(jnp.maximum(comp, lin_res))
+    else:
+        mask = sg(gt_s < a_s)  # cells where the contact condition is the gap one (c0 p > g)
+        iters = iters + n_it
+        done = done & n_done
+        residual = sg(jnp.max(jnp.abs(residual_ng(x_s)[0])))
+
     edge = _edge_mask(shape)
     touches = jnp.any(mask & edge)
     finite = jnp.all(jnp.isfinite(p)) & jnp.isfinite(d)
