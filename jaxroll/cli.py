@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -69,6 +71,51 @@ def _parse_initial(text):
     return out
 
 
+_INT = re.compile(r"[+-]?[0-9]+")
+
+
+def _parse_rr_options(text):
+    """``KEY=VALUE[,KEY=VALUE...]`` -> list of ``(key, value)``: ``true``/``false`` -> bool,
+    integer-looking -> int, otherwise a finite float. Option names are not checked here (they
+    go to the rolling-resistance model, which names an unknown one)."""
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. period=0.2,spacing=2.5e-4), got {text!r}")
+    out = []
+    for item in items:
+        if "=" not in item:
+            raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. period=0.2,spacing=2.5e-4), got {item!r}")
+        k, v = (x.strip() for x in item.split("=", 1))
+        if not k.isidentifier():
+            raise argparse.ArgumentTypeError(f"{item!r}: {k!r} is not an option name")
+        if v.lower() in ("true", "false"):
+            out.append((k, v.lower() == "true"))
+        elif _INT.fullmatch(v):
+            out.append((k, int(v)))
+        else:
+            try:
+                x = float(v)
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"{item!r}: {v!r} is not a number "
+                                                 "(integers, floats, true/false)") from None
+            if not math.isfinite(x):
+                raise argparse.ArgumentTypeError(f"{item!r}: the value must be finite")
+            out.append((k, x))
+    return out
+
+
+class _CollectOptions(argparse.Action):
+    """Merges repeated ``--rr-option`` flags into one dict; a key given twice is an error."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        merged = dict(getattr(namespace, self.dest) or {})
+        for k, v in values:
+            if k in merged:
+                parser.error(f"{option_string}: {k} given twice ({merged[k]!r} and {v!r})")
+            merged[k] = v
+        setattr(namespace, self.dest, merged)
+
+
 def _fit(args) -> int:
     import json
 
@@ -97,9 +144,17 @@ def _fit(args) -> int:
     kw = {}
     if data is not None:
         kw = dict(speeds=data.speed, loads=data.load, measured=data.value, sigma=data.sigma)
-    fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
-                            geometry=args.geometry, method=args.method, free=free, dma=dma, shift=shift, n_starts=args.starts,
-                            seed=args.seed, solver=args.solver)
+    rr_options = dict(args.rr_options or {})
+    try:
+        fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
+                                geometry=args.geometry, method=args.method, free=free, dma=dma, shift=shift,
+                                n_starts=args.starts, seed=args.seed, solver=args.solver, rr_options=rr_options,
+                                progress=args.method == "full")  # full 3D: ~seconds per evaluation
+    except TypeError as err:  # an option name the model does not take: name it, no traceback
+        if rr_options and "unexpected keyword argument" in str(err):
+            raise ValueError(f"--rr-option: {err} (method {args.method!r}, geometry {args.geometry!r}; the options "
+                             "go to jaxroll.rolling_resistance, see its docstring)") from None
+        raise
     report = fit.report()
     (out / "fit_report.txt").write_text(report + "\n")
     params = {
@@ -109,7 +164,8 @@ def _fit(args) -> int:
     }
     payload = {"parameters": params, "names": fit.names, "correlation": np.asarray(fit.correlation).tolist(),
                "converged": fit.converged, "cost": fit.cost, "reduced_chi2": fit.reduced_chi2,
-               "warnings": fit.warnings, "units": {"G0": "Pa", "tau": "s", "f": "-", "H": "m"}}
+               "warnings": fit.warnings, "rr_options": rr_options,
+               "units": {"G0": "Pa", "tau": "s", "f": "-", "H": "m"}}
     (out / "fit_params.json").write_text(json.dumps(payload, indent=2) + "\n")
     written = ["fit_report.txt", "fit_params.json"]
     if data is not None:
@@ -303,6 +359,11 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--initial", type=_parse_initial, help="initial values, e.g. G0=1e6,tau=0.1,f=0.5 (SI)")
     f.add_argument("--wlf", help="WLF shift C1,C2[K],T_ref[K] for DMA at several temperatures, e.g. 8.86,101.6,293.15 "
                    "(add C1,C2 to --free to fit them)")
+    f.add_argument("--rr-option", dest="rr_options", type=_parse_rr_options, action=_CollectOptions, default=None,
+                   metavar="KEY=VALUE[,...]",
+                   help="option of the rolling-resistance model (repeatable, or comma separated; SI), e.g. the "
+                   "fixed resolution of --method full on a sphere: period=0.2,spacing=2.5e-4,window=55,n_terms=500 "
+                   "(also tol, max_steps, load_batch; see jaxroll.rolling_resistance). Integers, floats, true/false")
     f.add_argument("--starts", type=int, default=5, help="number of starts spread over two decades (5)")
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--solver", choices=["lm", "lbfgs"], default="lm")

@@ -122,3 +122,112 @@ def test_reproduce_passes_selection_and_prints_tables(tmp_path, monkeypatch, cap
     row = next(line for line in out.splitlines() if line.startswith("| PP (slices) |"))
     assert "| 200 |" in row and "20.0 s" in row and row.rstrip().endswith("| 161 |")
     assert (tmp_path / "report.md").exists() and (tmp_path / "rr_H5mm.png").exists()
+
+
+# ------------------------------------------------------------------- fit --rr-option
+
+
+def test_rr_option_parsing_types_repeat_and_comma_forms():
+    from jaxroll.cli import build_parser
+
+    args = build_parser().parse_args(["fit", "d.csv", "--rr-option", "period=0.05,spacing=1e-3", "--rr-option",
+                                      "window=15", "--rr-option", " n_terms = 50 , throw=False,tol=1E-8,shift=-2"])
+    expected = {"period": 0.05, "spacing": 1e-3, "window": 15, "n_terms": 50, "throw": False, "tol": 1e-8, "shift": -2}
+    assert args.rr_options == expected
+    # int for integer-looking text, float otherwise (1e3 and 50.0 stay floats), bools are bools
+    assert [type(args.rr_options[k]) for k in expected] == [float, float, int, int, bool, float, int]
+    assert build_parser().parse_args(["fit", "d.csv", "--rr-option", "a=TRUE,b=50.0,c=1e3"]).rr_options == {
+        "a": True, "b": 50.0, "c": 1000.0}
+    assert type(build_parser().parse_args(["fit", "d.csv", "--rr-option", "b=50.0"]).rr_options["b"]) is float
+    assert build_parser().parse_args(["fit", "d.csv"]).rr_options is None
+
+
+@pytest.mark.parametrize(
+    "value,match",
+    [
+        ("period", "argument --rr-option: expected KEY=VALUE (e.g. period=0.2,spacing=2.5e-4), got 'period'"),
+        ("period=0.05,window", "expected KEY=VALUE (e.g. period=0.2,spacing=2.5e-4), got 'window'"),
+        ("window=fifteen", "argument --rr-option: 'window=fifteen': 'fifteen' is not a number"),
+        ("period=", "'period=': '' is not a number"),
+        ("=3", "'=3': '' is not an option name"),
+        ("n terms=3", "'n terms=3': 'n terms' is not an option name"),
+        ("tol=nan", "'tol=nan': the value must be finite"),
+        (",", "expected KEY=VALUE"),
+    ],
+)
+def test_rr_option_malformed_items_exit_2_naming_the_item(value, match, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["fit", "d.csv", "--radius", "0.02", "--rr-option", value])
+    assert exc.value.code == 2
+    assert match in capsys.readouterr().err
+
+
+def test_rr_option_given_twice_is_an_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["fit", "d.csv", "--radius", "0.02", "--rr-option", "window=15", "--rr-option", "period=0.1,window=17"])
+    assert exc.value.code == 2
+    assert "--rr-option: window given twice (15 and 17)" in capsys.readouterr().err
+
+
+def test_fit_full_sphere_with_rr_options_recovers_tau(tmp_path, capsys):
+    """``--method full`` with a fixed coarse resolution given through ``--rr-option``: the data
+    come from :func:`jaxroll.sphere3d.rolling_resistance_sweep` called directly at that
+    resolution (the oracle), so the fit returns the true tau only if every option reached the
+    model; another n_terms gives another tau (the options are not ignored)."""
+    import jax.numpy as jnp
+
+    from jaxroll.sphere3d import rolling_resistance_sweep
+
+    res = dict(period=0.05, spacing=1e-3, window=15, n_terms=50)  # 4-6 cells per contact radius at 50-150 N
+    layer = jr.Layer(H=0.03)
+    speeds, loads = np.array([5e-3, 5e-2]), np.array([50.0, 150.0])  # around the peak, V ~ r_c/tau = 0.02 m/s
+    out = rolling_resistance_sweep(jr.StandardLinearSolid(3e6, 0.25, 1.0), layer, 0.02, jnp.asarray(loads),
+                                   jnp.asarray(speeds), **res)
+    assert not np.any(np.asarray(out["status"]))
+    clean = np.asarray(out["value"]).ravel()  # speeds outer, loads inner
+    V, P = (a.ravel() for a in np.meshgrid(speeds, loads, indexing="ij"))
+
+    def run(name, values, sigma=None, opts=res):
+        path = tmp_path / f"{name}.csv"
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["speed", "load", "rolling_resistance"] + ([] if sigma is None else ["sigma"]))
+            w.writerow(["m/s", "N", "N"] + ([] if sigma is None else ["N"]))
+            cols = [V, P, values] + ([] if sigma is None else [sigma])
+            w.writerows([[repr(float(x)) for x in row] for row in zip(*cols)])  # full precision
+        flags = [f"{k}={v}" for k, v in opts.items()]
+        argv = ["fit", str(path), "--radius", "0.02", "--H", "0.03", "--method", "full", "--geometry", "sphere",
+                "--free", "tau", "--initial", "G0=3e6,tau=0.4,f=1", "--starts", "1",
+                "--rr-option", ",".join(flags[:2]), "--rr-option", flags[2], "--rr-option", flags[3],
+                "--out", str(tmp_path / name)]
+        assert main(argv) == 0
+        return json.loads((tmp_path / name / "fit_params.json").read_text())
+
+    exact = run("exact", clean)
+    assert exact["rr_options"] == res
+    tau = exact["parameters"]["tau"]
+    # noise-free data from the same discretised model: LM (rtol 1e-10 on the cost) and the
+    # contact solve (tol 1e-10) leave ~1e-12; 1e-8 is far below the effect of any resolution
+    # change (n_terms 50 -> 30 moves tau by 0.8 %, below)
+    assert tau["value"][0] == pytest.approx(0.25, rel=1e-8)
+    fitted = np.array([float(r[3]) for r in _rows(tmp_path / "exact" / "fitted.csv")[2:]])
+    np.testing.assert_allclose(fitted, clean, rtol=1e-7)  # fitted.csv keeps 8 significant digits
+
+    # 2 % noise (seed 0), sigma in the file: the 95 % interval, a few % wide, covers the truth
+    # (z-interval with chi^2/3-dof scaling: coverage below 95 % with 4 points, e.g. seed 4 misses)
+    noisy = run("noisy", clean * (1 + 0.02 * np.random.default_rng(0).standard_normal(clean.size)), 0.02 * clean)
+    (lo,), (hi,) = noisy["parameters"]["tau"]["ci95"]
+    assert lo <= 0.25 <= hi and 1e-3 < (hi - lo) / 0.25 < 0.2, (lo, hi)
+
+    # the options are used: a coarser Fourier cut-off is another model, whose best tau is off
+    other = run("other", clean, opts=dict(res, n_terms=30))
+    assert other["rr_options"]["n_terms"] == 30
+    assert abs(other["parameters"]["tau"]["value"][0] / 0.25 - 1) > 2e-3  # measured -0.8 %
+    capsys.readouterr()
+
+    # an option name the model does not take: one clear line naming it, exit status 2
+    assert main(["fit", str(tmp_path / "exact.csv"), "--radius", "0.02", "--H", "0.03", "--method", "full",
+                 "--free", "tau", "--rr-option", "period=0.05,spacing=1e-3,window=15,bogus=1",
+                 "--out", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err
+    assert "--rr-option:" in err and "unexpected keyword argument 'bogus'" in err and "Traceback" not in err
