@@ -5,7 +5,8 @@
   12 speeds (1e-4..1 m/s, log-spaced) x 5 loads (10..150 N) = 60 points, computed with the
   FULL 3D rolling-contact model (jaxroll.sphere3d.rolling_resistance_sweep) at the paper's
   resolution (period L = 0.2 m, cell a = 0.25 mm, 500 Fourier terms per axis, pressure window
-  55 x 55 cells), with 2 % multiplicative Gaussian noise (numpy default_rng(2026)); the sigma
+  55 x 55 cells) with the smoothed contact edge (edge_smoothing = 0.25, so that a fit with the
+  same model sees a smooth R_r; fitting/README.md), with 2 % multiplicative Gaussian noise (numpy default_rng(2026)); the sigma
   column is 2 % of the noise-free value. ``--method direct`` writes the direct-method
   version instead (seconds; for comparison only).
 * dma_example.csv + rolling_example.csv: a joint DMA + rolling example: DMA at 3 temperatures
@@ -39,16 +40,20 @@ LOADS = np.linspace(10.0, 150.0, 5)
 SEED, NOISE = 2026, 0.02
 #: the paper's resolution ([ZG] sec. 2 / DESIGN section 5)
 PERIOD, SPACING, N_TERMS = 0.2, 2.5e-4, 500
+#: smoothed contact edge of the full model (jaxroll.sphere3d.solve_sphere ``edge_smoothing``): makes
+#: R_r a smooth function of (G0, tau, f) so that least-squares fits with the same model converge
+EDGE_SMOOTHING = 0.25
 
 
-def full_resolution(spacing=SPACING, period=PERIOD, n_terms=None):
+def full_resolution(spacing=SPACING, period=PERIOD, n_terms=None, edge_smoothing=EDGE_SMOOTHING):
     """Resolution options of the full 3D model used for the shipped set: window wide enough for
-    the largest contact (radius estimate x 1.15, at least 41 cells as in the paper)."""
+    the largest contact (radius estimate x 1.15, at least 41 cells as in the paper), and the
+    smoothed contact edge."""
     mat = jr.StandardLinearSolid(**TRUE)
     r_max = float(s3.estimate_contact_radius(mat, jr.Layer(H=H, rho=RHO), R, float(LOADS.max())))
     window = max(41 if spacing <= SPACING else 3, 2 * math.ceil(1.15 * r_max / spacing) + 1)
     n_terms = n_terms if n_terms is not None else (N_TERMS if spacing == SPACING else round(period / spacing) // 2 * 2)
-    return dict(period=period, spacing=spacing, window=window, n_terms=n_terms)
+    return dict(period=period, spacing=spacing, window=window, n_terms=n_terms, edge_smoothing=edge_smoothing)
 
 
 def full_grid(material, layer, speeds, loads, **resolution):
@@ -92,7 +97,8 @@ def synthetic_sphere(method="full", spacing=SPACING, rng=None):
         clean = full_grid(jr.StandardLinearSolid(**TRUE), jr.Layer(H=H, rho=RHO), SPEEDS, LOADS, **res).T.ravel()
         V, P = (a.ravel() for a in np.meshgrid(SPEEDS, LOADS))
         how = (f"full 3D model (jaxroll.sphere3d.rolling_resistance_sweep), period {res['period']} m, cell "
-               f"{res['spacing'] * 1e3:g} mm, {res['n_terms']} Fourier terms, window {res['window']} cells")
+               f"{res['spacing'] * 1e3:g} mm, {res['n_terms']} Fourier terms, window {res['window']} cells, "
+               f"edge_smoothing {res['edge_smoothing']:g}")
     else:
         V, P, clean = rolling_grid(method, SPEEDS, LOADS)
         how = f"method={method!r} of jaxroll.rolling_resistance"

@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
+import time
 import warnings
 from pathlib import Path
 
@@ -400,7 +401,7 @@ def _rolling_model(radius, geometry, method, rr_options):
     return predict
 
 
-_SWEEP_KEYS = {"period", "spacing", "window", "n_terms", "tol", "max_steps", "load_batch"}
+_SWEEP_KEYS = {"period", "spacing", "window", "n_terms", "tol", "max_steps", "load_batch", "edge_smoothing"}
 
 
 def _use_sweep(geometry, method, rr_options):
@@ -588,6 +589,7 @@ def fit_material(
     rtol=1e-10,
     rr_options=None,
     jac_step=None,
+    progress=False,
 ) -> FitResult:
     """Identify viscoelastic parameters from rolling resistance and/or DMA data.
 
@@ -620,9 +622,12 @@ def fit_material(
             ``<= rtol * cost``; L-BFGS: gradient norm ``<= rtol``).
         jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
             differences in the log-parameters with step ``h`` (LM and the covariance), e.g. for
-            models that are only piecewise smooth at a fixed resolution (``method="full"``:
-            the contact area changes in whole cells; see fitting/README.md for what this does
-            and does not fix).
+            models that are only piecewise smooth at a fixed resolution (``method="full"``
+            without ``edge_smoothing``: the contact area changes in whole cells; see
+            fitting/README.md for what this does and does not fix).
+        progress: print one line per residual+Jacobian evaluation (evaluation count, chi^2,
+            parameters, elapsed time) for long fits (``method="full"``: tens of seconds per
+            evaluation), or a callable ``progress(count, chi2, params_dict, seconds)``.
 
     The compiled residual/Jacobian is cached per static configuration (everything except the
     initial values of the free parameters and the data values), so repeated fits of data of
@@ -694,10 +699,22 @@ def fit_material(
         while len(_CACHE) > _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
 
+    names = params.names_flat()
+    t_start, count = time.perf_counter(), [0]
+
     def evaluate(u):
         logp, dl = params.logp_and_slope(u)
         r, Jl = bundle.res_jac(jnp.asarray(logp), data)
         r, Jl = np.asarray(r), np.asarray(Jl)
+        if progress:
+            count[0] += 1
+            values = dict(zip(names, np.exp(np.asarray(logp)).tolist()))
+            elapsed, chi2 = time.perf_counter() - t_start, float(r @ r)
+            if callable(progress):
+                progress(count[0], chi2, values, elapsed)
+            else:
+                shown = "  ".join(f"{n}={v:.5g}" for n, v in values.items())
+                print(f"fit: evaluation {count[0]:3d}  chi2 {chi2:.6g}  {shown}  ({elapsed:.1f} s)", flush=True)
         return r, Jl * dl[None, :], Jl
 
     rng = np.random.default_rng(seed)
