@@ -605,8 +605,9 @@ def fit_material(
             ``spacing``, ``window``, optional ``n_terms``): the model is then evaluated with
             :func:`jaxroll.sphere3d.rolling_resistance_sweep` on the distinct speeds x loads
             (without them the inputs are traced and the automatic resolution falls back to
-            ``DEFAULT_TRACED_CELLS`` per point). Multi-parameter full-model fits are limited by
-            the grid's ruggedness (fitting/README.md).
+            ``DEFAULT_TRACED_CELLS`` per point). For multi-parameter full-model fits add
+            ``edge_smoothing`` (0.25 at the paper's grid, 0.5 on coarser ones): the exact
+            discrete R_r wiggles with the contact set and LM stalls on it (fitting/README.md).
         free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``).
         sigma: standard deviations of ``measured`` (default: ``|measured|``, i.e. relative).
         dma: :class:`DMAData` to fit jointly (or alone); ``dma_sigma``: ``(sigma', sigma'')``
