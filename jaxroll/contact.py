@@ -50,16 +50,20 @@ Contact problem and solver
 --------------------------
 Unknowns: pressure ``p >= 0`` on the window cells, penetration ``d``. Gap
 ``g = h - d + C p >= 0``, ``p g = 0``, ``sum(p) dA = P`` (``h`` = height of the rigid profile
-above its lowest point, ``dA`` = cell area). ``C`` is not symmetric for a viscoelastic layer,
-so the Polonsky-Keer CG is not used: the solver is a primal-dual active-set method (semismooth
-Newton on ``min(p, g) = 0``). Each step solves the equality-constrained system on the current
-contact set ``A`` (``g_A = 0``, ``p`` off ``A`` = 0, load) by restarted GMRES on the windowed FFT
-operator, then updates ``A = {p > 0 on A} U {g < 0 off A}``; it stops when ``A`` repeats.
+above its lowest point, ``dA`` = cell area). That is the load-controlled problem; in the
+penetration-controlled one ``d`` is given and the last equation is ``d = d_given`` instead (same
+unknowns, same solver; the load is ``sum(p) dA`` afterwards). ``C`` is not symmetric for a
+viscoelastic layer, so the Polonsky-Keer CG is not used: the solver is a primal-dual
+active-set method (semismooth Newton on ``min(p, g) = 0``). Each step solves the
+equality-constrained system on the current contact set ``A`` (``g_A = 0``, ``p`` off ``A`` = 0,
+load or penetration) by restarted GMRES on the windowed FFT operator, then updates
+``A = {p > 0 on A} U {g < 0 off A}``; it stops when ``A`` repeats.
 
 Differentiation
 ---------------
 On the converged contact set the solution is the solution of a linear system whose matrix
-depends on ``T`` (material, layer, speed) and whose right-hand side depends on ``h`` and ``P``.
+depends on ``T`` (material, layer, speed) and whose right-hand side depends on ``h`` and ``P``
+(or the prescribed ``d``).
 The returned pressure and penetration come out of :func:`jax.lax.custom_linear_solve` on that
 system, so derivatives of any functional of the solution follow from the implicit function
 theorem (one adjoint GMRES solve), never from unrolling the active-set iterations (which run
@@ -300,15 +304,16 @@ class ContactSolution(eqx.Module):
 
     Attributes:
         pressure: contact pressure [Pa] on the window cells.
-        penetration: rigid-body penetration ``d`` [m].
+        penetration: rigid-body penetration ``d`` [m] (the given one in penetration mode).
         contact: boolean contact set (cells with ``g = 0``; with ``smoothing``, the cells
             where ``c0 p > g``).
         gap: gap ``h - d + C p`` [m] (0 on the contact set).
         displacement: surface displacement ``C p`` [m] (zero-mean periodic part).
         iterations: active-set iterations.
-        residual: final scaled residual, ``max |min(p/p_s, g/g_s)|`` with the load equation and
-            the linear residual (scales: mean contact pressure, ``p_s`` times the self
-            compliance).
+        residual: final scaled residual, ``max |min(p/p_s, g/g_s)|`` with the load (or
+            penetration) equation and the linear residual (scales: load mode, ``p_s`` = mean
+            contact pressure of the initial set and ``g_s = c0 p_s``; penetration mode,
+            ``g_s = |d|`` and ``p_s = g_s/c0``; ``c0`` = self compliance).
         status: integer code, see :data:`CONTACT_STATUS` (0 = converged).
     """
 
@@ -329,9 +334,10 @@ def _flat(p, d):
 def solve_contact(
     compliance: "WindowedCompliance",
     profile,
-    load,
-    cell_area,
+    load=None,
+    cell_area=None,
     *,
+    penetration=None,
     initial_contact=None,
     tol: float = 1e-10,
     max_steps: int = 50,
@@ -343,16 +349,22 @@ def solve_contact(
 ) -> "ContactSolution":
     """Solve frictionless steady-state rolling contact of a rigid profile (any dimension).
 
-    Find ``p >= 0``, ``d`` with ``g = h - d + C p >= 0``, ``p g = 0``, ``sum(p) dA = P``.
+    Load-controlled (``load``): find ``p >= 0``, ``d`` with ``g = h - d + C p >= 0``,
+    ``p g = 0``, ``sum(p) dA = P``. Penetration-controlled (``penetration=d``): the same with
+    ``d`` given and no load equation (the load is ``sum(p) dA``). Give exactly one of the two.
 
     Args:
         compliance: :class:`WindowedCompliance` (non-symmetric allowed).
         profile: ``h`` [m], height of the rigid surface above its lowest point, on the window
             grid (shape ``compliance.shape``).
-        load: total load ``P`` [N per unit length in 1D, N in 2D], positive.
-        cell_area: cell size ``dA`` [m in 1D, m^2 in 2D].
-        initial_contact: boolean initial guess of the contact set (default: the cells where
-            ``h`` lies in the lowest 10 % of its range).
+        load: total load ``P`` [N per unit length in 1D, N in 2D], positive (load mode).
+        cell_area: cell size ``dA`` [m in 1D, m^2 in 2D]; required in load mode, not used in
+            penetration mode.
+        penetration: prescribed rigid-body penetration ``d`` [m] (penetration mode; keyword
+            only). ``d <= 0`` gives ``p = 0``.
+        initial_contact: boolean initial guess of the contact set (default: load mode, the
+            cells where ``h`` lies in the lowest 10 % of its range; penetration mode, the
+            geometric overlap ``h < d``).
         tol: tolerance on the scaled residual (the linear solves use ``1e-3 tol``).
         max_steps: static maximum number of active-set iterations.
         linear_restart, linear_maxiter, linear_method: GMRES Krylov size, restarts and
@@ -364,10 +376,10 @@ def solve_contact(
             ``smin_eps(c0 p, g) = 0`` with the log-sum-exp soft minimum. Cells whose gap or
             ``c0 p`` is below ~``eps`` share the load partially, so a cell enters the contact
             gradually as the parameters change: the solution is then a smooth (C-infinity)
-            function of the compliance, profile and load instead of a piecewise smooth one
-            with a kink at every contact-set change (what makes least-squares fits on the
-            discrete model stall). Outside the contact the pressure decays like
-            ``(eps/c0) exp(-g/eps)``. The exact solution is recovered as ``eps -> 0`` (the
+            function of the compliance, profile and load (or penetration) instead of a
+            piecewise smooth one with a kink at every contact-set change (what makes
+            least-squares fits on the discrete model stall). Outside the contact the pressure
+            decays like ``(eps/c0) exp(-g/eps)``. The exact solution is recovered as ``eps -> 0`` (the
             smoothed and exact problems differ by ``O(eps)`` in ``d`` and at the edge cells).
             Solved by damped Newton on the smoothed equations, started from the exact
             (active-set) solution.
@@ -375,14 +387,28 @@ def solve_contact(
 
     Returns:
         :class:`ContactSolution`; ``pressure`` and ``penetration`` are differentiable
-        (implicit function theorem on the converged contact set).
+        (implicit function theorem on the converged contact set) w.r.t. the compliance, the
+        profile and the load or the prescribed penetration.
     """
+    if (load is None) == (penetration is None):
+        raise ValueError("give exactly one of load (load-controlled) and penetration "
+                         "(penetration-controlled)")
+    if penetration is None and cell_area is None:
+        raise ValueError("cell_area is required with a load")
+    penetration_mode = penetration is not None
     h = jnp.asarray(profile, dtype=float)
     if h.shape != compliance.shape:
         raise ValueError(f"profile shape {h.shape} does not match the window shape {compliance.shape}")
+    value = jnp.asarray(penetration if penetration_mode else load, dtype=float)
+    if value.shape != ():
+        raise ValueError(f"{'penetration' if penetration_mode else 'load'} must be a scalar; "
+                         f"got shape {value.shape}")
     if initial_contact is None:
-        hmin, hmax = jnp.min(h), jnp.max(h)
-        initial_contact = h <= hmin + 0.1 * (hmax - hmin)
+        if penetration_mode:
+            initial_contact = h < jax.lax.stop_gradient(value)
+        else:
+            hmin, hmax = jnp.min(h), jnp.max(h)
+            initial_contact = h <= hmin + 0.1 * (hmax - hmin)
     initial_contact = jnp.asarray(initial_contact, bool)
     if initial_contact.shape != h.shape:
         raise ValueError("initial_contact must have the window shape")
@@ -392,10 +418,11 @@ def solve_contact(
     return _solve_contact(
         compliance,
         h,
-        jnp.asarray(load, dtype=float),
-        jnp.asarray(cell_area, dtype=float),
+        value,
+        None if penetration_mode else jnp.asarray(cell_area, dtype=float),
         initial_contact,
         smoothing,
+        penetration_mode=penetration_mode,
         tol=tol,
         max_steps=max_steps,
         linear_restart=linear_restart,
@@ -409,11 +436,12 @@ def solve_contact(
 def _solve_contact(
     compliance: WindowedCompliance,
     profile,
-    load,
+    value,
     cell_area,
     initial_contact,
     smoothing,
     *,
+    penetration_mode: bool = False,
     tol: float = 1e-10,
     max_steps: int = 50,
     linear_restart: int = 80,
@@ -423,17 +451,32 @@ def _solve_contact(
 ) -> ContactSolution:
     shape = compliance.shape
     h = profile
-    load = eqx.error_if(load, ~(load > 0), "the load must be positive")
     mask0 = initial_contact
 
     # ---- scales (preconditioning only; constants for differentiation) ----
+    # Unknowns x = (p/p_s, d/g_s). The last equation is last_row(p~, d~) = value / value_s:
+    # load mode, load_w sum(p~) = load / load_ng (i.e. dA sum(p) = load); penetration mode,
+    # d~ = d / g_s (d pinned; its derivative enters through this right-hand side).
     sg = jax.lax.stop_gradient
-    n0 = jnp.maximum(jnp.sum(mask0), 1).astype(float)
-    p_s = sg(load / (cell_area * n0))
     c0 = sg(jnp.abs(compliance.self_compliance))
-    g_s = p_s * c0
-    # load row: load_w * sum(p~) = load / load_ng, i.e. dA * sum(p) = load
-    load_w = cell_area * p_s / sg(load)
+    if penetration_mode:
+        g_s = sg(jnp.maximum(jnp.abs(value), 1e-300))
+        p_s = g_s / c0
+        value_s = g_s
+        load_w = None
+
+        def last_row(pt, dt, lw):
+            return dt
+    else:
+        value = eqx.error_if(value, ~(value > 0), "the load must be positive")
+        n0 = jnp.maximum(jnp.sum(mask0), 1).astype(float)
+        p_s = sg(value / (cell_area * n0))
+        g_s = p_s * c0
+        value_s = sg(value)
+        load_w = cell_area * p_s / sg(value)
+
+        def last_row(pt, dt, lw):
+            return lw * jnp.sum(pt)
 
     def make_matvec(C, mask, lw):
         maskf = mask.astype(float)
@@ -442,13 +485,13 @@ def _solve_contact(
             pt = x[:-1].reshape(shape)
             dt = x[-1]
             gap_rows = maskf * (C(maskf * pt) * (p_s / g_s) - dt) + (1.0 - maskf) * pt
-            return jnp.concatenate([gap_rows.ravel(), (lw * jnp.sum(maskf * pt))[None]])
+            return jnp.concatenate([gap_rows.ravel(), last_row(maskf * pt, dt, lw)[None]])
 
         return matvec
 
-    def rhs(hh, mask, load_ratio):
+    def rhs(hh, mask, target):
         maskf = mask.astype(float)
-        return jnp.concatenate([(-maskf * hh / g_s).ravel(), load_ratio[None]])
+        return jnp.concatenate([(-maskf * hh / g_s).ravel(), target[None]])
 
     def lin_solve(mv, b, x0):
         x, _ = gmres(mv, b, x0=x0, tol=tol * 1e-3, atol=0.0, restart=linear_restart,
@@ -458,7 +501,7 @@ def _solve_contact(
     # ---- primal-dual active-set iterations on stop_gradient inputs ----
     C_ng = jax.tree_util.tree_map(sg, compliance)
     h_ng = sg(h)
-    b_ratio = jnp.asarray(1.0)
+    b_ratio = sg(value) / value_s
     lw_ng = sg(load_w)
     x_init = _flat(mask0.astype(float), jnp.asarray(0.0))
     eps = 1e-12
@@ -487,7 +530,7 @@ def _solve_contact(
     if smoothing is None:
         # ---- differentiable solution on the converged contact set (implicit function theorem) ----
         mv = make_matvec(compliance, mask, load_w)
-        b = rhs(h, mask, load / sg(load))
+        b = rhs(h, mask, value / value_s)
 
         x = jax.lax.custom_linear_solve(
             mv,
@@ -506,12 +549,12 @@ def _solve_contact(
             gt = hh / g_s - x[-1] + C(pt) * (p_s / g_s)
             a = ratio * pt
             F = -eps * jnp.logaddexp(-a / eps, -gt / eps)
-            return jnp.concatenate([F.ravel(), (lw * jnp.sum(pt) - target)[None]]), a, gt
+            return jnp.concatenate([F.ravel(), (last_row(pt, x[-1], lw) - target)[None]]), a, gt
 
         eps_ng = sg(eps_t)
 
         def residual_ng(x):
-            return smoothed_residual(x, C_ng, h_ng, 1.0, eps_ng, lw_ng, 1.0)
+            return smoothed_residual(x, C_ng, h_ng, 1.0, eps_ng, lw_ng, b_ratio)
 
         def jacobian_matvec(a, gt):
             w_a = jax.nn.sigmoid((gt - a) / eps_ng)  # d smin / d a; d smin / d g = 1 - w_a
@@ -519,7 +562,7 @@ def _solve_contact(
             def matvec(v):
                 vp = v[:-1].reshape(shape)
                 rows = w_a * vp + (1.0 - w_a) * (C_ng(vp) * (p_s / g_s) - v[-1])
-                return jnp.concatenate([rows.ravel(), (lw_ng * jnp.sum(vp))[None]])
+                return jnp.concatenate([rows.ravel(), last_row(vp, v[-1], lw_ng)[None]])
 
             return matvec
 
@@ -544,7 +587,8 @@ def _solve_contact(
         x_s = sg(x_s)
         # differentiable: one Newton correction whose right-hand side carries the parameter
         # dependence (implicit function theorem: dx = -J^{-1} dF; the value is unchanged to tol)
-        F_theta, _, _ = smoothed_residual(x_s, compliance, h, c0_ratio, eps_t, load_w, load / sg(load))
+        F_theta, _, _ = smoothed_residual(x_s, compliance, h, c0_ratio, eps_t, load_w,
+                                          value / value_s)
         _, a_s, gt_s = residual_ng(x_s)
         x = x_s + jax.lax.custom_linear_solve(
             jacobian_matvec(a_s, gt_s),
@@ -555,7 +599,7 @@ def _solve_contact(
 
     pt = x[:-1].reshape(shape)
     p = pt * p_s
-    d = x[-1] * g_s
+    d = value if penetration_mode else x[-1] * g_s  # the given d exactly (x[-1] g_s = d to tol)
     u = compliance(p)
     g = h - d + u
 

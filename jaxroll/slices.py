@@ -43,11 +43,11 @@ profile on it is a combination of ``1, j, j^2``: one Levinson recursion per spee
 every load at that speed is a primal-dual active-set iteration on the interval whose steps cost
 one table row and the gaps next to the interval, no factorisation (:func:`solve_interval`; the
 full complementarity is checked at the end). The
-``"dense"`` (LU, :func:`solve_dense`) and ``"gmres"`` (FFT operator, :func:`solve_penetration`
-and :func:`jaxroll.contact.solve_contact`) solvers solve the same discrete problem in general
-form (agreement to rounding is tested). :func:`rolling_resistance_slices_grid` evaluates a
-speeds x loads grid (the paper's reference case) with the compliance and tables built once per
-speed.
+``"dense"`` (LU, :func:`solve_dense`) and ``"gmres"`` (FFT operator,
+:func:`jaxroll.contact.solve_contact`, whose penetration mode :func:`solve_penetration` wraps)
+solvers solve the same discrete problem in general form (agreement to rounding is tested).
+:func:`rolling_resistance_slices_grid` evaluates a speeds x loads grid (the paper's reference
+case) with the compliance and tables built once per speed.
 
 Derivatives. The scalar root finds (eqs. 7 and 11) are a bracketed, safeguarded Newton
 iteration in ``log d_o`` inside :func:`jax.lax.custom_root`, so derivatives come from the
@@ -64,7 +64,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.scipy.sparse.linalg import gmres
 
 from . import contact as _contact
 from ._numerics import as_float, roller_inputs
@@ -140,84 +139,24 @@ class SliceSolution(eqx.Module):
 # ---------------------------------------------------------------------------------------------
 
 
-class _PenetrationSolution(eqx.Module):
-    pressure: jax.Array
-    contact: jax.Array
-    status: jax.Array
-    iterations: jax.Array
-
-
 def solve_penetration(compliance, profile, penetration, *, tol=1e-10, max_steps=50,
                       linear_restart=80, linear_maxiter=20):
     """Frictionless rolling contact at a prescribed rigid-body penetration (any dimension).
 
     Find ``p >= 0`` [Pa] with ``g = h - d + C p >= 0`` and ``p g = 0`` for a fixed ``d`` [m]
-    (the load follows as ``sum(p) dA``): the penetration-controlled twin of
-    :func:`jaxroll.contact.solve_contact`, same primal-dual active-set method (semismooth
-    Newton on ``min(p, g) = 0``, GMRES on the FFT-applied operator of the contact set), started
-    from the geometric overlap ``{h < d}``. The pressure comes out of
-    :func:`jax.lax.custom_linear_solve` on the converged contact set, so it is differentiable
-    (implicit function theorem) w.r.t. the compliance, ``h`` and ``d``. ``d <= 0`` gives
+    (the load follows as ``sum(p) dA``): :func:`jaxroll.contact.solve_contact` in its
+    penetration mode, started from the geometric overlap ``{h < d}``, never raising (failures
+    are reported in ``status``). The pressure is differentiable (implicit function theorem on
+    the converged contact set) w.r.t. the compliance, ``h`` and ``d``. ``d <= 0`` gives
     ``p = 0``.
 
-    Returns a small module with ``pressure``, ``contact``, ``status`` (codes of
-    :data:`jaxroll.contact.CONTACT_STATUS`, 0 = converged) and ``iterations``.
+    Returns:
+        :class:`jaxroll.contact.ContactSolution` (``pressure``, ``contact``, ``status`` with the
+        codes of :data:`jaxroll.contact.CONTACT_STATUS`, 0 = converged, ``iterations``, ...).
     """
-    sg = jax.lax.stop_gradient
-    h = jnp.asarray(profile, dtype=float)
-    d = jnp.asarray(penetration, dtype=float)
-    shape = compliance.shape
-    c0 = sg(jnp.abs(compliance.self_compliance))
-    g_s = sg(jnp.maximum(jnp.abs(d), 1e-300))
-
-    def make_matvec(C, mask):
-        maskf = mask.astype(float)
-
-        def matvec(pt):
-            return maskf * C(maskf * pt) / c0 + (1.0 - maskf) * pt
-
-        return matvec
-
-    def rhs(hh, dd, mask):
-        return mask.astype(float) * (dd - hh) / g_s
-
-    def lin_solve(mv, b, x0):
-        x, _ = gmres(mv, b, x0=x0, tol=tol * 1e-3, atol=0.0, restart=linear_restart,
-                     maxiter=linear_maxiter, solve_method="incremental")
-        return x
-
-    C_ng = jax.tree_util.tree_map(sg, compliance)
-    h_ng, d_ng = sg(h), sg(d)
-    mask0 = h_ng < d_ng
-    eps = 1e-12
-
-    def body(state):
-        mask, x, it, _ = state
-        x = lin_solve(make_matvec(C_ng, mask), rhs(h_ng, d_ng, mask), x)
-        gt = (h_ng - d_ng) / g_s + C_ng(x) / c0
-        new = jnp.where(mask, x > -eps, gt < -eps)
-        done = jnp.all(new == mask) | ~jnp.all(jnp.isfinite(x))
-        new = jnp.where(done, mask, new)
-        return new, x, it + 1, done
-
-    def cond(state):
-        return (~state[3]) & (state[2] < max_steps)
-
-    mask, x_ng, iters, done = jax.lax.while_loop(
-        cond, body, (mask0, mask0.astype(float), jnp.asarray(0), jnp.asarray(False))
-    )
-    mask, x_ng = sg(mask), sg(x_ng)
-    x = jax.lax.custom_linear_solve(
-        make_matvec(compliance, mask),
-        rhs(h, d, mask),
-        solve=lambda f, b: lin_solve(f, b, x_ng),
-        transpose_solve=lambda f, b: lin_solve(f, b, None),
-    )
-    p = x * (g_s / c0)
-    finite = jnp.all(jnp.isfinite(p))
-    edge = jnp.zeros(shape, bool).at[0].set(True).at[-1].set(True)
-    status = jnp.where(~finite, 4, jnp.where(jnp.any(mask & edge), 3, jnp.where(done, 0, 1)))
-    return _PenetrationSolution(pressure=p, contact=mask, status=status, iterations=iters)
+    return _contact.solve_contact(compliance, profile, penetration=penetration, tol=tol,
+                                  max_steps=max_steps, linear_restart=linear_restart,
+                                  linear_maxiter=linear_maxiter, throw=False)
 
 
 def dense_window_matrix(compliance):

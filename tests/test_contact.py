@@ -241,3 +241,100 @@ def test_2d_grid_hertz_sphere():
     # of a cell vs the continuum peak (~2 %)
     assert area == pytest.approx(np.pi * a * a, rel=0.06)
     assert float(sol.pressure.max()) == pytest.approx(3 * P / (2 * np.pi * a * a), rel=0.03)
+
+
+# ------------------------------------------------------------------- penetration-controlled mode
+
+
+def _T2d(G=G0):
+    """Non-symmetric 2D test compliance: half-space 1/(2 G q) with a travelling-direction phase."""
+
+    def T(qx, qy):
+        q = jnp.sqrt(qx**2 + qy**2)
+        pos = q > 0
+        el = jnp.where(pos, 1.0 / (2.0 * G * jnp.where(pos, q, 1.0)), 0.0).astype(complex)
+        return el * (1.0 + 0.3j * jnp.tanh(qx * 1e-3).astype(complex))
+
+    return T
+
+
+def test_penetration_mode_options():
+    op, x, h, dx, P = _problem(V=3e-2)
+    with pytest.raises(ValueError, match="exactly one of load"):
+        ct.solve_contact(op, h, P, dx, penetration=1e-4)
+    with pytest.raises(ValueError, match="exactly one of load"):
+        ct.solve_contact(op, h, cell_area=dx)
+    with pytest.raises(ValueError, match="cell_area is required"):
+        ct.solve_contact(op, h, P)
+    with pytest.raises(ValueError, match="penetration must be a scalar"):
+        ct.solve_contact(op, h, penetration=jnp.ones(2))
+
+
+@pytest.mark.parametrize("smoothing", [None, 2e-6])
+def test_penetration_mode_1d_reproduces_load_mode_and_differentiates(smoothing):
+    # Oracle 1: the load-controlled solution. Fed its penetration, the penetration-controlled
+    # solve must return the same pressure (both solve the same discrete problem; tolerance: the
+    # GMRES tolerance 1e-13 times the conditioning of the contact block), the given d exactly
+    # and the load back.
+    # Oracle 2: central differences of the pressure moment and the load w.r.t. (s, R, d): s
+    # scales the compliance (C -> s C, i.e. G -> G/s for the half-space), R is the profile
+    # radius, d the prescribed penetration; relative step 1e-6 (truncation ~1e-10, round-off
+    # ~1e-9 with 1e-13 solves), no contact-set change inside the step (checked).
+    op, x, h, dx, P = _problem(V=3e-2)
+    R = 0.02
+    xj = jnp.asarray(x)
+    ref = ct.solve_contact(op, h, P, dx, smoothing=smoothing)
+    assert int(ref.status) == 0
+
+    def outputs(theta):
+        s, R, d = theta
+        sol = ct.solve_contact(jax.tree_util.tree_map(lambda a: s.astype(a.dtype) * a, op),
+                               xj * xj / (2 * R), penetration=d, smoothing=smoothing)
+        p = sol.pressure
+        out = jnp.stack([jnp.sum(p * xj) * dx / R, jnp.sum(p) * dx])
+        return out, (out, sol)
+
+    # one compiled function: Jacobian by adjoint implicit solves, the solution and the values
+    jac = jax.jit(jax.jacrev(outputs, has_aux=True))
+    theta = jnp.asarray([1.0, R, float(ref.penetration)])
+    J, (_, sol) = jac(theta)
+    assert int(sol.status) == 0
+    np.testing.assert_allclose(np.asarray(sol.pressure), np.asarray(ref.pressure), rtol=0,
+                               atol=1e-8 * float(ref.pressure.max()))
+    assert float(sol.penetration) == float(ref.penetration)
+    assert float(jnp.sum(sol.pressure)) * dx == pytest.approx(P, rel=1e-9)
+    np.testing.assert_array_equal(np.asarray(sol.contact), np.asarray(ref.contact))
+    assert int(jnp.sum(sol.contact)) > 20
+    if smoothing is not None:  # the smoothed edge is a different problem from the exact one
+        exact = ct.solve_contact(op, h, P, dx)
+        bias = float(jnp.max(jnp.abs(ref.pressure - exact.pressure)))
+        assert bias > 1e-3 * float(exact.pressure.max())
+
+    J = np.asarray(J)
+    for i in range(3):
+        e = np.zeros(3)
+        e[i] = 1e-6 * float(theta[i])
+        (_, (fp, sp)), (_, (fm, sm)) = jac(theta + e), jac(theta - e)
+        np.testing.assert_array_equal(np.asarray(sp.contact), np.asarray(sol.contact))
+        np.testing.assert_array_equal(np.asarray(sm.contact), np.asarray(sol.contact))
+        fd = (np.asarray(fp) - np.asarray(fm)) / (2 * e[i])
+        np.testing.assert_allclose(J[:, i], fd, rtol=1e-5)
+
+
+def test_penetration_mode_reproduces_load_mode_2d():
+    # same oracle on a 2D grid with a non-symmetric compliance
+    L, N, W = (0.016, 0.016), (32, 32), (16, 16)
+    dx = L[0] / N[0]
+    R, P = 0.02, 10.0
+    op = ct.windowed_compliance(ct.periodic_kernel(_T2d(), L, N, images=2), N, W)
+    xs = (jnp.arange(W[0], dtype=float) - 0.5 * (W[0] - 1)) * dx
+    X, Y = jnp.meshgrid(xs, xs, indexing="ij")
+    h = (X**2 + Y**2) / (2 * R)
+    ref = ct.solve_contact(op, h, P, dx * dx)
+    sol = ct.solve_contact(op, h, penetration=ref.penetration)
+    assert int(ref.status) == 0 and int(sol.status) == 0
+    assert int(jnp.sum(ref.contact)) > 20  # a contact of several cells per radius
+    # tolerance: GMRES tolerance times the conditioning of the contact block
+    np.testing.assert_allclose(np.asarray(sol.pressure), np.asarray(ref.pressure), rtol=0,
+                               atol=1e-8 * float(ref.pressure.max()))
+    assert float(jnp.sum(sol.pressure)) * dx * dx == pytest.approx(P, rel=1e-9)
