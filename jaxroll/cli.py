@@ -453,6 +453,9 @@ def main(argv=None) -> int:
     except ValueError as err:  # bad physical input: one clear line, no traceback
         print(f"jaxroll {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except OSError as err:  # missing or unreadable input file, unwritable --out
+        print(f"jaxroll {args.command}: error: {err.strerror or err}: {err.filename or ''}".rstrip(": "), file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

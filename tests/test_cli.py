@@ -231,3 +231,10 @@ def test_fit_full_sphere_with_rr_options_recovers_tau(tmp_path, capsys):
                  "--out", str(tmp_path / "bad")]) == 2
     err = capsys.readouterr().err
     assert "--rr-option:" in err and "unexpected keyword argument 'bogus'" in err and "Traceback" not in err
+
+
+def test_fit_missing_data_file_is_one_line_error(tmp_path, capsys):
+    missing = tmp_path / "nope.csv"
+    assert main(["fit", str(missing), "--radius", "0.02", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxroll fit: error: ") and "nope.csv" in err and "Traceback" not in err
