@@ -107,6 +107,7 @@ __all__ = [
     "solve_contact",
     "CONTACT_STATUS",
     "dissipation_resistance",
+    "edge_gap_scale",
 ]
 
 #: Status codes of :class:`ContactSolution`.
@@ -651,6 +652,21 @@ def _edge_mask(shape):
         sl[k] = -1
         m[tuple(sl)] = True
     return jnp.asarray(m)
+
+
+def edge_gap_scale(kappa, cell_size, contact_radius, radius):
+    """Gap scale ``eps`` [m] for ``smoothing`` of :func:`solve_contact`: ``kappa a^{3/2} c^{1/2} / R``.
+
+    Near the edge of a Hertz contact (sphere or cylinder) of radius/half-width ``c`` and
+    penetration ``~ c^2/R`` the gap grows like ``(c^2/R) (s/c)^{3/2}`` with the distance ``s``
+    outside the edge, so this is (up to an O(1) factor) the gap one cell of size ``a`` outside
+    the edge, and ``kappa`` measures the smoothing in cells. Give a smooth estimate of ``c``
+    (e.g. the Hertz/Jaffar radius), never the discrete contact size, or the smoothed solution
+    stops being smooth in the parameters. ``kappa = None`` returns ``None`` (no smoothing).
+    """
+    if kappa is None:
+        return None
+    return kappa * cell_size * jnp.sqrt(cell_size * contact_radius) / radius
 
 
 def dissipation_resistance(kernel2, pressure, n_cells, period):

@@ -333,14 +333,6 @@ class SphereSolution(eqx.Module):
 
 
 
-def _edge_scale(edge_smoothing, dx, r_est, R):
-    """Smoothing gap scale [m] of the contact edge: ``kappa a^{3/2} r^{1/2} / R``, the order of
-    the gap one cell outside the edge of a Hertz contact of radius ``r`` (``None`` if off)."""
-    if edge_smoothing is None:
-        return None
-    return edge_smoothing * dx * jnp.sqrt(dx * r_est) / R
-
-
 def _solve_on(K, K2, res: _Resolution, R, P, r_init, *, tol, max_steps, throw, est, init=None, edge_smoothing=None):
     W = res.window
     dx = res.dx
@@ -353,7 +345,7 @@ def _solve_on(K, K2, res: _Resolution, R, P, r_init, *, tol, max_steps, throw, e
         guess = jnp.where(jnp.any(init), init, guess)
     sol = _contact.solve_contact(
         C, h, P, dx * dx, initial_contact=guess, tol=tol, max_steps=max_steps,
-        smoothing=_edge_scale(edge_smoothing, dx, est, R), throw=throw,
+        smoothing=_contact.edge_gap_scale(edge_smoothing, dx, est, R), throw=throw,
     )
     p = sol.pressure
     moment = jnp.sum(p * X) * dx * dx / R

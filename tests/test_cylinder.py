@@ -281,3 +281,32 @@ def test_exact_halfspace_fine_resolution(zeta):
     res = cy.rolling_resistance_full(mat, jr.Layer(jnp.inf), R, P, zeta * A0 / TAU, cells_per_radius=100)
     # tolerance: 0.1 % at 100 cells per half-width
     assert float(res.value) == pytest.approx(_exact(zeta), rel=1e-3)
+
+
+# ------------------------------------------------------------------ smoothed contact edge
+def _line_rr(kappa, V, n=21):
+    """Full 2D R_r along a straight line in log-parameters (G0 -33 %, tau +10 %, f -18 %), traced
+    inputs as in a fit (automatic grid scaled by the estimated half-width, 25 cells)."""
+    s = np.linspace(0.0, 1.0, n)
+    mats = jr.StandardLinearSolid(3e6 * np.exp(-0.4 * s), 0.25 * np.exp(0.1 * s), np.exp(-0.2 * s))
+    run = jax.jit(jax.vmap(lambda m: jr.rolling_resistance(m, jr.Layer(H=0.005), radius=0.02, load=5000.0, speed=V,
+                                                           geometry="cylinder", method="full",
+                                                           edge_smoothing=kappa).value))
+    return s, np.asarray(run(mats))
+
+
+def test_cylinder_edge_smoothing_removes_the_wiggle():
+    """At low speed the exact discrete R_r wiggles as the contact gains or loses a cell (rms
+    8.1e-4 about a quintic along this line, 41 points); kappa = 0.25 leaves 4.6e-5 at a mean
+    bias of -0.3 % (worst -0.9 %); at V = 1e-2 m/s: 2.9e-5 -> 6.4e-8, bias -0.05 %."""
+    out = {}
+    for kappa in (None, 0.25):
+        s, v = _line_rr(kappa, 1e-3)
+        y = np.log(v)
+        out[kappa] = (float(np.std(y - np.polyval(np.polyfit(s, y, 5), s))), v)
+    assert out[None][0] > 2e-4, out[None][0]
+    assert out[0.25][0] < out[None][0] / 5, (out[0.25][0], out[None][0])
+    bias = out[0.25][1] / out[None][1] - 1
+    # soft edge: less asymmetry on average; pointwise the difference also contains the exact
+    # model's own wiggle (+-0.2 %), so only the mean has a sign
+    assert np.mean(bias) < 0 and np.all(np.abs(bias) < 0.015), bias
