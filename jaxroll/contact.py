@@ -59,6 +59,20 @@ equality-constrained system on the current contact set ``A`` (``g_A = 0``, ``p``
 load or penetration) by restarted GMRES on the windowed FFT operator, then updates
 ``A = {p > 0 on A} U {g < 0 off A}``; it stops when ``A`` repeats.
 
+GMRES is right-preconditioned (``linear_preconditioner=True``, the default) by the inverse of
+the ``2W``-periodic circulant embedding of ``C`` (one FFT pair: divide by the embedding's
+Fourier multiplier, its modulus floored at 1e-3 of the largest), applied to the residual on the
+contact set and masked back to it, with the load/penetration row eliminated exactly (block
+Schur complement). The converged solution is the same (the stopping test stays on the true
+residual); the Krylov iterations drop 4-9x for the 3D sphere at the paper's resolution (e.g.
+``P = 150 N``: 942 -> 101 operator applications per solve) and 2.5-4x in 1D; the same
+preconditioner (transposed for the adjoint) serves the implicit-differentiation solves and,
+with the soft-min weights, the Newton steps of the smoothed contact edge. Measured on 2 CPU
+cores (``benchmarks/bench_precond.py``): 3D single solves 1.8-4.3x faster, the 5 x 4 sweep 5.5x
+(exact) / 4.2x (``edge_smoothing = 0.25``), the 345-point reference sweep 5.4x, a 60-point fit
+evaluation (residual + 3 tangents) 4.2x; values unchanged to 7e-11 relative, derivatives to
+1e-10; the 1D cylinder solve 1.1x faster.
+
 Differentiation
 ---------------
 On the converged contact set the solution is the solution of a linear system whose matrix
@@ -345,6 +359,7 @@ def solve_contact(
     linear_restart: int = 80,
     linear_maxiter: int = 20,
     linear_method: str = "incremental",
+    linear_preconditioner: bool = True,
     smoothing=None,
     throw: bool = True,
 ) -> "ContactSolution":
@@ -370,6 +385,10 @@ def solve_contact(
         max_steps: static maximum number of active-set iterations.
         linear_restart, linear_maxiter, linear_method: GMRES Krylov size, restarts and
             ``solve_method`` per linear solve.
+        linear_preconditioner: static; right-precondition GMRES with the inverse circulant
+            embedding of ``C`` on the contact set (default True; see the module docstring).
+            The converged solution and its derivatives do not depend on it (to the solver
+            tolerance); only the number of GMRES iterations does.
         smoothing: ``None`` (default: the exact complementarity above) or a gap scale
             ``eps`` [m] > 0 (traced allowed) for the *smoothed contact edge*: the condition
             ``min(c0 p, g) = 0`` (``c0`` = self compliance, so ``c0 p`` is the gap the cell's
@@ -429,8 +448,13 @@ def solve_contact(
         linear_restart=linear_restart,
         linear_maxiter=linear_maxiter,
         linear_method=linear_method,
+        linear_preconditioner=linear_preconditioner,
         throw=throw,
     )
+
+
+#: Floor of the modulus of the preconditioner's Fourier multiplier, relative to its maximum.
+_PRECOND_FLOOR = 1e-3
 
 
 @eqx.filter_jit
@@ -448,6 +472,7 @@ def _solve_contact(
     linear_restart: int = 80,
     linear_maxiter: int = 20,
     linear_method: str = "incremental",
+    linear_preconditioner: bool = True,
     throw: bool = True,
 ) -> ContactSolution:
     shape = compliance.shape
@@ -494,10 +519,87 @@ def _solve_contact(
         maskf = mask.astype(float)
         return jnp.concatenate([(-maskf * hh / g_s).ravel(), target[None]])
 
-    def lin_solve(mv, b, x0):
-        x, _ = gmres(mv, b, x0=x0, tol=tol * 1e-3, atol=0.0, restart=linear_restart,
-                     maxiter=linear_maxiter, solve_method=linear_method)
-        return x
+    def lin_solve(mv, b, x0, precond=None):
+        if precond is None:
+            x, _ = gmres(mv, b, x0=x0, tol=tol * 1e-3, atol=0.0, restart=linear_restart,
+                         maxiter=linear_maxiter, solve_method=linear_method)
+            return x
+        # right preconditioning on the correction: A M y = b - A x0, x = x0 + M y. The stopping
+        # test is on the true residual |b - A x| <= 1e-3 tol |b|, as without the preconditioner.
+        r0 = b if x0 is None else b - mv(x0)
+        y, _ = gmres(lambda v: mv(precond(v)), r0, tol=0.0, atol=tol * 1e-3 * jnp.linalg.norm(b),
+                     restart=linear_restart, maxiter=linear_maxiter, solve_method=linear_method)
+        dx = precond(y)
+        return dx if x0 is None else x0 + dx
+
+    # ---- preconditioner: inverse of the 2W-periodic circulant embedding of C on the window ----
+    # For the block system [[B, u], [v^T, c]] (B: gap/pressure rows, u: the d column, v: the last
+    # row) with an approximate inverse P of B, the exact block elimination
+    #     d = (r2 - v.P r1) / (c - v.P u),  p = P (r1 - u d)
+    # is applied. P acts on the cells "in contact" (mask; weights s_i of C) as the inverse of the
+    # circulant embedding (a 2W-periodic operator, divided by its Fourier multiplier) and as a
+    # diagonal elsewhere. The preconditioner uses stop_gradient data only: it changes the GMRES
+    # iterations, not the converged solution, so the implicit derivatives are unaffected.
+    emb = tuple(2 * w for w in shape)
+    axes = tuple(range(-len(shape), 0))
+    win = tuple(slice(0, w) for w in shape)
+    # The embedded multiplier can vanish: K_0 = 0 (zero-mean periodic displacement) makes the
+    # window sum of the influence coefficients, i.e. the q = 0 mode of the embedding, ~0 when they
+    # decay within the window (thin layers). Its modulus is floored at _PRECOND_FLOOR of the
+    # largest one (phase kept), so the preconditioner stays bounded; this affects only modes the
+    # contact set barely sees (the sphere at the paper's resolution has min/max ~ 3e-3: unchanged).
+    mult = sg(compliance.multiplier)
+    mod = jnp.abs(mult)
+    floor = _PRECOND_FLOOR * jnp.max(mod)
+    big = mod >= floor
+    one = jnp.ones_like(mult)
+    phase = jnp.where(mod > 0, jnp.conj(mult) / jnp.where(mod > 0, mod, 1.0).astype(mult.dtype), one)
+    inv_mult = jnp.where(big, one / jnp.where(big, mult, one), phase / floor.astype(mult.dtype))
+    scale_inv = g_s / p_s  # C p (p_s/g_s) is the scaled operator
+
+    def circ_inv(r, transpose):
+        mult = jnp.conj(inv_mult) if transpose else inv_mult
+        return jnp.fft.irfftn(mult * jnp.fft.rfftn(r, s=emb, axes=axes), s=emb, axes=axes)[win] * scale_inv
+
+    def make_precond(in_set, w_in, w_out, u, v, c, transpose):
+        """M ~ A^-1 (or A^-T). in_set: bool mask; rows on it ~ w_in * (scaled C) on the set,
+        rows off it ~ w_out * identity; u, v: window-shaped d column and last row; c: corner."""
+        mf = in_set.astype(float)
+        w_out = jnp.where(in_set, 1.0, w_out)
+        w_in = jnp.where(in_set, w_in, 1.0)
+        if transpose:
+            u, v = v, u
+
+            def P(r):
+                return mf * circ_inv(mf * r, True) / w_in + (1.0 - mf) * r / w_out
+        else:
+            def P(r):
+                return mf * circ_inv(mf * r / w_in, False) + (1.0 - mf) * r / w_out
+
+        Pu = P(u)
+        den = c - jnp.sum(v * Pu)
+        ok = jnp.abs(den) > 1e-300
+        den_safe = jnp.where(ok, den, 1.0)
+
+        def M(r):
+            r1 = r[:-1].reshape(shape)
+            r2 = r[-1]
+            Pr1 = P(r1)
+            d = jnp.where(ok, (r2 - jnp.sum(v * Pr1)) / den_safe, r2)
+            return _flat(Pr1 - d * Pu, d)
+
+        return M
+
+    def active_set_precond(mask, lw, transpose=False):
+        if not linear_preconditioner:
+            return None
+        mf = mask.astype(float)
+        ones = jnp.ones(shape)
+        if penetration_mode:
+            v, c = jnp.zeros(shape), jnp.asarray(1.0)
+        else:
+            v, c = lw * mf, jnp.asarray(0.0)
+        return make_precond(mask, ones, ones, -mf, v, c, transpose)
 
     # ---- primal-dual active-set iterations on stop_gradient inputs ----
     C_ng = jax.tree_util.tree_map(sg, compliance)
@@ -510,7 +612,7 @@ def _solve_contact(
     def body(state):
         mask, x, it, _ = state
         mv = make_matvec(C_ng, mask, lw_ng)
-        x = lin_solve(mv, rhs(h_ng, mask, b_ratio), x)
+        x = lin_solve(mv, rhs(h_ng, mask, b_ratio), x, active_set_precond(mask, lw_ng))
         pt = x[:-1].reshape(shape)
         gt = h_ng / g_s - x[-1] + C_ng(pt) * (p_s / g_s)
         new = jnp.where(mask, pt > -eps, gt < -eps)
@@ -536,8 +638,8 @@ def _solve_contact(
         x = jax.lax.custom_linear_solve(
             mv,
             b,
-            solve=lambda f, bb: lin_solve(f, bb, x_ng),
-            transpose_solve=lambda f, bb: lin_solve(f, bb, None),
+            solve=lambda f, bb: lin_solve(f, bb, x_ng, active_set_precond(mask, lw_ng)),
+            transpose_solve=lambda f, bb: lin_solve(f, bb, None, active_set_precond(mask, lw_ng, True)),
         )
     else:
         # ---- smoothed contact edge: damped Newton on smin_eps(c0 p, g) = 0 from the exact solution ----
@@ -567,12 +669,23 @@ def _solve_contact(
 
             return matvec
 
+        def jacobian_precond(a, gt, transpose=False):
+            if not linear_preconditioner:
+                return None
+            w_a = jax.nn.sigmoid((gt - a) / eps_ng)
+            in_set = w_a < 0.5  # gap-dominated rows (the contact): ~ (1 - w_a) C
+            if penetration_mode:
+                v, c = jnp.zeros(shape), jnp.asarray(1.0)
+            else:
+                v, c = lw_ng * jnp.ones(shape), jnp.asarray(0.0)
+            return make_precond(in_set, 1.0 - w_a, w_a, -(1.0 - w_a), v, c, transpose)
+
         alphas = 0.5 ** jnp.arange(10.0)
 
         def newton(state):
             x, it, _, _ = state
             F, a, gt = residual_ng(x)
-            step = lin_solve(jacobian_matvec(a, gt), -F, None)
+            step = lin_solve(jacobian_matvec(a, gt), -F, None, jacobian_precond(a, gt))
             merit = jax.vmap(lambda al: jnp.sum(residual_ng(x + al * step)[0] ** 2))(alphas)
             ok = merit <= (1.0 - 1e-4 * alphas) * jnp.sum(F * F)  # Armijo on |F|^2
             k = jnp.where(jnp.any(ok), jnp.argmax(ok), alphas.size - 1)
@@ -594,8 +707,8 @@ def _solve_contact(
         x = x_s + jax.lax.custom_linear_solve(
             jacobian_matvec(a_s, gt_s),
             -F_theta,
-            solve=lambda f, bb: lin_solve(f, bb, None),
-            transpose_solve=lambda f, bb: lin_solve(f, bb, None),
+            solve=lambda f, bb: lin_solve(f, bb, None, jacobian_precond(a_s, gt_s)),
+            transpose_solve=lambda f, bb: lin_solve(f, bb, None, jacobian_precond(a_s, gt_s, True)),
         )
 
     pt = x[:-1].reshape(shape)
