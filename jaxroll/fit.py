@@ -627,7 +627,7 @@ def fit_material(
             without ``edge_smoothing``: the contact area changes in whole cells; see
             fitting/README.md for what this does and does not fix).
         progress: print one line per residual+Jacobian evaluation (evaluation count, chi^2,
-            parameters, elapsed time) for long fits (``method="full"``: tens of seconds per
+            parameters, elapsed time) for long fits (``method="full"``: seconds per
             evaluation), or a callable ``progress(count, chi2, params_dict, seconds)``.
 
     The compiled residual/Jacobian is cached per static configuration (everything except the

@@ -374,7 +374,7 @@ def test_full_3d_recovers_the_shipped_set():
     """Item 4 of the identification issue on the shipped file: the full 3D model (the data's own
     model and resolution) recovers G0, tau, f inside the 95 % intervals. Measured: G0 2.76 MPa
     [1.93, 3.94], tau 0.2557 s [0.233, 0.281], f 0.965 [0.80, 1.16], chi^2/dof 0.99, 15
-    residual+Jacobian evaluations of ~30 s each (8 min on 2 cores)."""
+    residual+Jacobian evaluations of ~6 s each (96 s on 2 cores)."""
     header = Path(SHIPPED).read_text().splitlines()[1]
     assert "period 0.2 m, cell 0.25 mm, 500 Fourier terms, window 55 cells, edge_smoothing 0.25" in header, header
     data = read_rolling_csv(SHIPPED)
