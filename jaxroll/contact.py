@@ -59,7 +59,8 @@ equality-constrained system on the current contact set ``A`` (``g_A = 0``, ``p``
 load or penetration) by restarted GMRES on the windowed FFT operator, then updates
 ``A = {p > 0 on A} U {g < 0 off A}``; it stops when ``A`` repeats.
 
-GMRES is right-preconditioned (``linear_preconditioner=True``, the default) by the inverse of
+GMRES on a 2D window (the sphere) is right-preconditioned (``linear_preconditioner``, on by
+default in 2D, off in 1D; see below) by the inverse of
 the ``2W``-periodic circulant embedding of ``C`` (one FFT pair: divide by the embedding's
 Fourier multiplier, its modulus floored at 1e-3 of the largest), applied to the residual on the
 contact set and masked back to it, with the load/penetration row eliminated exactly (block
@@ -71,7 +72,9 @@ with the soft-min weights, the Newton steps of the smoothed contact edge. Measur
 cores (``benchmarks/bench_precond.py``): 3D single solves 1.8-4.3x faster, the 5 x 4 sweep 5.5x
 (exact) / 4.2x (``edge_smoothing = 0.25``), the 345-point reference sweep 5.4x, a 60-point fit
 evaluation (residual + 3 tangents) 4.2x; values unchanged to 7e-11 relative, derivatives to
-1e-10; the 1D cylinder solve 1.1x faster.
+1e-10. In 1D it is off by default: the default cylinder solve gains only 1.1x, and at fine
+resolution (100 cells per half-width, the slow tests of ``tests/test_cylinder.py``) the
+preconditioned GMRES stalled above the tolerance (status 2) where the plain one converges.
 
 Differentiation
 ---------------
@@ -359,7 +362,7 @@ def solve_contact(
     linear_restart: int = 80,
     linear_maxiter: int = 20,
     linear_method: str = "incremental",
-    linear_preconditioner: bool = True,
+    linear_preconditioner: bool | None = None,
     smoothing=None,
     throw: bool = True,
 ) -> "ContactSolution":
@@ -386,7 +389,8 @@ def solve_contact(
         linear_restart, linear_maxiter, linear_method: GMRES Krylov size, restarts and
             ``solve_method`` per linear solve.
         linear_preconditioner: static; right-precondition GMRES with the inverse circulant
-            embedding of ``C`` on the contact set (default True; see the module docstring).
+            embedding of ``C`` on the contact set. Default ``None``: on for 2D windows (the
+            3D sphere: 4-5x faster), off in 1D (see the module docstring).
             The converged solution and its derivatives do not depend on it (to the solver
             tolerance); only the number of GMRES iterations does.
         smoothing: ``None`` (default: the exact complementarity above) or a gap scale
@@ -448,7 +452,7 @@ def solve_contact(
         linear_restart=linear_restart,
         linear_maxiter=linear_maxiter,
         linear_method=linear_method,
-        linear_preconditioner=linear_preconditioner,
+        linear_preconditioner=(len(compliance.shape) == 2) if linear_preconditioner is None else bool(linear_preconditioner),
         throw=throw,
     )
 
