@@ -145,16 +145,11 @@ def _fit(args) -> int:
     if data is not None:
         kw = dict(speeds=data.speed, loads=data.load, measured=data.value, sigma=data.sigma)
     rr_options = dict(args.rr_options or {})
-    try:
-        fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
-                                geometry=args.geometry, method=args.method, free=free, dma=dma, shift=shift,
-                                n_starts=args.starts, seed=args.seed, solver=args.solver, rr_options=rr_options,
-                                progress=args.method == "full")  # full 3D: ~seconds per evaluation
-    except TypeError as err:  # an option name the model does not take: name it, no traceback
-        if rr_options and "unexpected keyword argument" in str(err):
-            raise ValueError(f"--rr-option: {err} (method {args.method!r}, geometry {args.geometry!r}; the options "
-                             "go to jaxroll.rolling_resistance, see its docstring)") from None
-        raise
+    # an option name the model does not take is a ValueError of jaxroll.rolling_resistance (one line below)
+    fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
+                            geometry=args.geometry, method=args.method, free=free, dma=dma, shift=shift,
+                            n_starts=args.starts, seed=args.seed, solver=args.solver, rr_options=rr_options,
+                            progress=args.method == "full")  # full 3D: seconds per evaluation
     report = fit.report()
     (out / "fit_report.txt").write_text(report + "\n")
     params = {

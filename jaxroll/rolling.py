@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import warnings
 
 import jax
@@ -18,6 +19,18 @@ class ValidityWarning(UserWarning):
 
 def _is_concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
+
+
+def _check_options(options, fn, what):
+    """ValueError naming the ``options`` that ``fn`` (the function that consumes them) does not
+    take, instead of a TypeError from deep inside; functions taking ``**kwargs`` check their own."""
+    params = inspect.signature(fn).parameters
+    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return
+    bad = sorted(set(options) - set(params))
+    if bad:
+        known = sorted(k for k, p in params.items() if p.kind is p.KEYWORD_ONLY)
+        raise ValueError(f"{what} does not take the option(s) {bad}; its options are {known}")
 
 
 def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere", method="direct",
@@ -66,6 +79,7 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
     elif method == "direct":
         from .direct import direct_rolling_resistance
 
+        _check_options(options, direct_rolling_resistance, "method='direct'")
         res = direct_rolling_resistance(material, layer, radius=radius, load=load, speed=speed,
                                         geometry=geometry, pressure=pressure, period=period, n_terms=n_terms,
                                         rtol=rtol, **options)
@@ -77,12 +91,15 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
         if period is not None:
             options = dict(options, period=period)
         if method == "full" and geometry == "cylinder":
-            from .cylinder import rolling_resistance_full
+            from .cylinder import rolling_resistance_full, solve_cylinder
 
+            _check_options(options, solve_cylinder, "method='full' on a cylinder")
             res = rolling_resistance_full(material, layer, radius, load, speed, **options)
         elif method == "full" and geometry == "sphere":
             from .sphere3d import rolling_resistance_full as sphere_full
+            from .sphere3d import solve_sphere
 
+            _check_options(options, solve_sphere, "method='full' on a sphere")
             res = sphere_full(material, layer, radius, load, speed, **options)
         elif geometry == "sphere":
             from .slices import rolling_resistance_slices
