@@ -687,27 +687,28 @@ def _solve_contact(
         alphas = 0.5 ** jnp.arange(10.0)
 
         def newton(state):
-            x, it, _, _ = state
-            F, a, gt = residual_ng(x)
+            # carries the residual and soft-min arguments of the current iterate (one evaluation
+            # per trial step: the accepted trial's values become the next iterate's)
+            x, (F, a, gt), it, _ = state
             step = lin_solve(jacobian_matvec(a, gt), -F, None, jacobian_precond(a, gt))
-            merit = jax.vmap(lambda al: jnp.sum(residual_ng(x + al * step)[0] ** 2))(alphas)
+            trials = jax.vmap(lambda al: residual_ng(x + al * step))(alphas)
+            merit = jnp.sum(trials[0] ** 2, axis=1)
             ok = merit <= (1.0 - 1e-4 * alphas) * jnp.sum(F * F)  # Armijo on |F|^2
             k = jnp.where(jnp.any(ok), jnp.argmax(ok), alphas.size - 1)
             x = x + alphas[k] * step
-            Fn = residual_ng(x)[0]
-            fn = jnp.max(jnp.abs(Fn))
-            return x, it + 1, (fn <= tol) | ~jnp.all(jnp.isfinite(x)), fn
+            res_k = jax.tree_util.tree_map(lambda t: t[k], trials)
+            done = (jnp.max(jnp.abs(res_k[0])) <= tol) | ~jnp.all(jnp.isfinite(x))
+            return x, res_k, it + 1, done
 
-        x_s, n_it, n_done, _ = jax.lax.while_loop(
-            lambda s: (~s[2]) & (s[1] < max_steps), newton,
-            (x_ng, jnp.asarray(0), jnp.asarray(False), jnp.asarray(jnp.inf)),
+        x_s, (F_s, a_s, gt_s), n_it, n_done = jax.lax.while_loop(
+            lambda s: (~s[3]) & (s[2] < max_steps), newton,
+            (x_ng, residual_ng(x_ng), jnp.asarray(0), jnp.asarray(False)),
         )
-        x_s = sg(x_s)
+        x_s, F_s, a_s, gt_s = sg(x_s), sg(F_s), sg(a_s), sg(gt_s)
         # differentiable: one Newton correction whose right-hand side carries the parameter
         # dependence (implicit function theorem: dx = -J^{-1} dF; the value is unchanged to tol)
         F_theta, _, _ = smoothed_residual(x_s, compliance, h, c0_ratio, eps_t, load_w,
                                           value / value_s)
-        _, a_s, gt_s = residual_ng(x_s)
         x = x_s + jax.lax.custom_linear_solve(
             jacobian_matvec(a_s, gt_s),
             -F_theta,
@@ -730,7 +731,7 @@ def _solve_contact(
         mask = sg(gt_s < a_s)  # cells where the contact condition is the gap one (c0 p > g)
         iters = iters + n_it
         done = done & n_done
-        residual = sg(jnp.max(jnp.abs(residual_ng(x_s)[0])))
+        residual = jnp.max(jnp.abs(F_s))
 
     edge = _edge_mask(shape)
     touches = jnp.any(mask & edge)
