@@ -8,9 +8,11 @@ import time
 import jax
 
 
-def timed(fn, *args, repeat=5):
-    """``(first, median, output)``: seconds of the first call (compile + run), median seconds of
-    ``repeat`` further calls, each timed with ``block_until_ready``, and the last output."""
+def timed(fn, *args, repeat=5, all_runs=False):
+    """``(first, median, output)``: seconds of the first call (compile + run; a warm-up for an
+    ahead-of-time compiled ``fn``), median seconds of ``repeat`` further calls, each timed with
+    ``block_until_ready``, and the last output; ``all_runs=True`` returns the list of run times
+    instead of their median."""
     t = time.perf_counter()
     out = jax.block_until_ready(fn(*args))
     first = time.perf_counter() - t
@@ -19,4 +21,4 @@ def timed(fn, *args, repeat=5):
         t = time.perf_counter()
         out = jax.block_until_ready(fn(*args))
         runs.append(time.perf_counter() - t)
-    return first, statistics.median(runs), out
+    return first, (runs if all_runs else statistics.median(runs)), out

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxroll as jr
+from _timing import timed
 from jaxroll import sphere3d as s3
 
 G0, TAU, F, R = 3e6, 0.25, 1.0, 0.02
@@ -64,11 +65,7 @@ def main():
     lowered = sweep.lower(*theta)
     compiled = lowered.compile()
     t_compile = time.perf_counter() - t
-    runs = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = jax.block_until_ready(compiled(*theta))
-        runs.append(time.perf_counter() - t)
+    _, runs, out = timed(compiled, *theta, repeat=repeat, all_runs=True)
     v, d = np.asarray(out["value"]), np.asarray(out["dissipation"])
     st = np.asarray(out["status"])
     spread = np.max(np.abs(v - d) / np.abs(v))
