@@ -8,6 +8,8 @@ from . import _numerics  # noqa: F401  (enables float64 first)
 
 # --- material (G*(omega)) ---------------------------------------------------------------
 from .material import (
+    AbstractMaterial,
+    AbstractShift,
     Arrhenius,
     AtTemperature,
     GeneralizedMaxwell,
@@ -42,13 +44,16 @@ from .reference import (
     thin_layer_cylinder,
     thin_layer_cylinder_pressure,
 )
-from .pressure import contact_radius, jaffar_coefficients, pressure_profile, pressure_transform
-from .direct import QuadratureSettings, direct_rolling_resistance
-from .contact import ContactSolution, periodic_kernel, solve_contact, windowed_compliance
-from . import cylinder, sphere3d  # noqa: F401  (full models: jaxroll.cylinder, jaxroll.sphere3d)
-from .cylinder import CylinderSolution, solve_cylinder
-from .slices import SliceSolution, rolling_resistance_slices, rolling_resistance_slices_grid, solve_slices
-from .rolling import ValidityWarning, rolling_resistance
+from .contact_size import contact_radius, estimate_contact_size, jaffar_coefficients
+from .pressure import pressure_profile, pressure_transform
+from .direct import QuadratureSettings
+from . import contact, cylinder, direct, slices, sphere3d  # noqa: F401  (the engines, as modules)
+
+# --- methods, grids, results and the front doors ------------------------------------------
+from .grids import AutoGrid, FixedGrid
+from .methods import AbstractMethod, Direct, Full, Slices
+from .result import RESULTS, RollingResult, ValidityWarning
+from .rolling import rolling_resistance, rolling_resistance_grid
 from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
 from .fit import DMAData, FitResult, IdentifiabilityWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv
 

@@ -17,7 +17,8 @@ import jax.numpy as jnp
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["as_float", "check_x64", "roller_inputs", "sinh_minus_x_scaled", "to_complex", "where_safe"]
+__all__ = ["as_float", "check_x64", "newton_root", "NewtonInfo", "roller_inputs", "sinh_minus_x_scaled", "to_complex",
+           "where_safe"]
 
 
 def check_x64() -> None:
@@ -91,3 +92,65 @@ def roller_inputs(radius, load, speed):
     P = eqx.error_if(P, ~(P > 0), "load P must be positive")
     V = eqx.error_if(V, ~(V >= 0), "speed V must be >= 0 (the roller travels toward +x)")
     return R, P, V
+
+
+class NewtonInfo(eqx.Module):
+    """Diagnostics of :func:`newton_root` (no gradient): iterations, final ``|f|`` and whether
+    the step or the residual fell below the tolerance."""
+
+    iterations: jax.Array
+    residual: jax.Array
+    converged: jax.Array
+
+
+def newton_root(fun, x0, *, lower=-jnp.inf, upper=jnp.inf, tol=1e-12, max_steps=60, max_step=jnp.inf):
+    """Root of an increasing scalar function ``fun`` by safeguarded Newton, with implicit
+    derivatives.
+
+    Newton steps (derivative by ``jax.jvp``) clipped to ``max_step`` and kept inside the
+    bracket ``[lo, hi]``: it starts at ``[lower, upper]`` (give them where the signs are known,
+    ``fun(lower) < 0 <= fun(upper)``) and shrinks with the sign of every residual seen; a step
+    that leaves a finite bracket is replaced by bisection, a non-finite or non-increasing
+    derivative by a ``max_step`` step toward the root (or bisection). Stops when the step is
+    below ``tol`` or ``|fun| < 1e-13``, or after ``max_steps``.
+
+    ``fun`` may close over traced values: the root is differentiated by
+    :func:`jax.lax.custom_root` (implicit function theorem), never by unrolling the loop.
+    Works under ``jit``, ``vmap`` (the loop runs until every lane stops) and ``grad``.
+
+    Returns:
+        ``(x, NewtonInfo)``.
+    """
+    lower, upper = jnp.asarray(lower, float), jnp.asarray(upper, float)
+
+    def solve(f, x_init):
+        def body(c):
+            x, lo, hi, it, _, _ = c
+            r, dr = jax.jvp(f, (x,), (jnp.ones_like(x),))
+            lo = jnp.where(r < 0, x, lo)
+            hi = jnp.where(r >= 0, x, hi)
+            ok = (dr > 0) & jnp.isfinite(dr) & jnp.isfinite(r)
+            step = jnp.where(ok, -r / jnp.where(ok, dr, 1.0), jnp.where(r < 0, max_step, -max_step))
+            x_new = x + jnp.clip(step, -max_step, max_step)
+            bracketed = jnp.isfinite(lo) & jnp.isfinite(hi)
+            outside = ~((x_new >= lo) & (x_new <= hi))
+            x_new = jnp.where(bracketed & outside, 0.5 * (lo + hi), x_new)
+            at_root = jnp.abs(r) < 1e-13  # x itself is the root: keep it (a bisection would leave it)
+            x_new = jnp.where(at_root, x, x_new)
+            conv = (jnp.abs(x_new - x) < tol) | at_root
+            return x_new, lo, hi, it + 1, conv, r
+
+        def cond(c):
+            return (~c[4]) & (c[3] < max_steps)
+
+        out = jax.lax.while_loop(cond, body, (x_init, lower + 0.0 * x_init, upper + 0.0 * x_init, jnp.asarray(0),
+                                              jnp.asarray(False), jnp.full_like(x_init, jnp.inf)))
+        # aux as floats (custom_root differentiates its outputs; ints/bools would need float0)
+        return out[0], (out[3].astype(float), jnp.abs(out[5]), out[4].astype(float))
+
+    def tangent_solve(g, y):
+        return y / g(jnp.ones_like(y))
+
+    x, (it, res, conv) = jax.lax.custom_root(fun, jnp.asarray(x0, float), solve, tangent_solve, has_aux=True)
+    it, res, conv = (jax.lax.stop_gradient(v) for v in (it, res, conv))
+    return x, NewtonInfo(iterations=it.astype(int), residual=res, converged=conv > 0.5)

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
-import re
 import sys
 import time
 from pathlib import Path
 
+import equinox as eqx
 import numpy as np
+
+from .methods import METHOD_NAMES
 
 __all__ = ["main"]
 
@@ -71,49 +72,59 @@ def _parse_initial(text):
     return out
 
 
-_INT = re.compile(r"[+-]?[0-9]+")
+def _method_args(p, *, fit=False):
+    """The method and its configuration as options (SI units)."""
+    g = p.add_argument_group("method", "the rolling-resistance method and its configuration (jaxroll.Direct, "
+                             "jaxroll.Full, jaxroll.Slices)")
+    g.add_argument("--method", choices=list(METHOD_NAMES), default=_default_method_name(),
+                   help=f"direct (stationary pressure, [ZG] sec. 4), full (the full 2D/3D contact model), PD | PP | "
+                   f"SP (sphere from cylinder slices, [ZG] sec. 3); default {_default_method_name()}")
+    g.add_argument("--pressure", choices=["auto", "thick", "thin", "thin-compressible", "elastic"], default="auto",
+                   help="stationary pressure model of --method direct (auto)")
+    g.add_argument("--spacing", type=_positive("--spacing [m]"), default=None,
+                   help="fixed grid (full, slices, direct --pressure elastic): cell size [m], with --window")
+    g.add_argument("--window", type=_count("--window"), default=None,
+                   help="fixed grid: cells per side of the pressure window, with --spacing")
+    g.add_argument("--period", type=_positive("--period [m]"), default=None,
+                   help="period of the surface [m] (the paper: 0.2); default: automatic")
+    g.add_argument("--n-terms", dest="n_terms", type=_count("--n-terms"), default=None,
+                   help="Fourier cut-off of the periodic 3D compliance (paper: 500); default the period cells")
+    g.add_argument("--cells-per-radius", dest="cells_per_radius", type=_count("--cells-per-radius"), default=None,
+                   help="automatic grid: cells per contact radius (default: sphere 12, lines 25-128 by speed)")
+    g.add_argument("--edge-smoothing", dest="edge_smoothing", type=_positive("--edge-smoothing"), default=None,
+                   help="--method full: smoothed contact edge kappa (0.25 on the paper's grid; for fits)")
+    g.add_argument("--n-slices", dest="n_slices", type=_count("--n-slices"), default=21,
+                   help="PD | PP | SP: odd number of slices (21)")
 
 
-def _parse_rr_options(text):
-    """``KEY=VALUE[,KEY=VALUE...]`` -> list of ``(key, value)``: ``true``/``false`` -> bool,
-    integer-looking -> int, otherwise a finite float. Option names are not checked here (they
-    go to the rolling-resistance model, which names an unknown one)."""
-    items = [item.strip() for item in text.split(",") if item.strip()]
-    if not items:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. period=0.2,spacing=2.5e-4), got {text!r}")
-    out = []
-    for item in items:
-        if "=" not in item:
-            raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. period=0.2,spacing=2.5e-4), got {item!r}")
-        k, v = (x.strip() for x in item.split("=", 1))
-        if not k.isidentifier():
-            raise argparse.ArgumentTypeError(f"{item!r}: {k!r} is not an option name")
-        if v.lower() in ("true", "false"):
-            out.append((k, v.lower() == "true"))
-        elif _INT.fullmatch(v):
-            out.append((k, int(v)))
-        else:
-            try:
-                x = float(v)
-            except ValueError:
-                raise argparse.ArgumentTypeError(f"{item!r}: {v!r} is not a number "
-                                                 "(integers, floats, true/false)") from None
-            if not math.isfinite(x):
-                raise argparse.ArgumentTypeError(f"{item!r}: the value must be finite")
-            out.append((k, x))
-    return out
+def _default_method_name():
+    from .methods import Direct, Full, Slices
+    from .rolling import DEFAULT_METHOD
+
+    if isinstance(DEFAULT_METHOD, Slices):
+        return DEFAULT_METHOD.algorithm
+    return {Direct: "direct", Full: "full"}[type(DEFAULT_METHOD)]
 
 
-class _CollectOptions(argparse.Action):
-    """Merges repeated ``--rr-option`` flags into one dict; a key given twice is an error."""
+def _method_from_args(args):
+    """The method object the options describe."""
+    import jaxroll as jr
 
-    def __call__(self, parser, namespace, values, option_string=None):
-        merged = dict(getattr(namespace, self.dest) or {})
-        for k, v in values:
-            if k in merged:
-                parser.error(f"{option_string}: {k} given twice ({merged[k]!r} and {v!r})")
-            merged[k] = v
-        setattr(namespace, self.dest, merged)
+    if (args.spacing is None) != (args.window is None):
+        raise ValueError("--spacing and --window describe a fixed grid together: give both (or neither, for the "
+                         "automatic grid)")
+    if args.spacing is not None:
+        if args.cells_per_radius is not None:
+            raise ValueError("--cells-per-radius sizes the automatic grid; it does not go with --spacing/--window")
+        grid = jr.FixedGrid(args.spacing, args.window, period=args.period, n_terms=args.n_terms)
+    else:
+        grid = jr.AutoGrid(cells_per_radius=args.cells_per_radius,
+                           period="auto" if args.period is None else args.period, n_terms=args.n_terms)
+    if args.method == "direct":
+        return jr.Direct(pressure=args.pressure, grid=grid)
+    if args.method == "full":
+        return jr.Full(grid=grid, edge_smoothing=args.edge_smoothing)
+    return jr.Slices(algorithm=args.method, n_slices=args.n_slices, grid=grid)
 
 
 def _fit(args) -> int:
@@ -144,12 +155,15 @@ def _fit(args) -> int:
     kw = {}
     if data is not None:
         kw = dict(speeds=data.speed, loads=data.load, measured=data.value, sigma=data.sigma)
-    rr_options = dict(args.rr_options or {})
-    # an option name the model does not take is a ValueError of jaxroll.rolling_resistance (one line below)
+    method = _method_from_args(args)
+    if data is not None and method.needs_resolution(args.geometry):
+        raise ValueError(f"--method {args.method} computes on a grid, which a fit must keep fixed while the material "
+                         f"varies: give --spacing and --window (and --period), e.g. --spacing 2.5e-4 --window 55 "
+                         f"--period 0.2")
     fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
-                            geometry=args.geometry, method=args.method, free=free, dma=dma, shift=shift,
-                            n_starts=args.starts, seed=args.seed, solver=args.solver, rr_options=rr_options,
-                            progress=args.method == "full")  # full 3D: seconds per evaluation
+                            geometry=args.geometry, method=method, free=free, dma=dma, shift=shift,
+                            n_starts=args.starts, seed=args.seed, solver=args.solver,
+                            progress=args.method != "direct")  # grid methods: seconds per evaluation
     report = fit.report()
     (out / "fit_report.txt").write_text(report + "\n")
     params = {
@@ -159,7 +173,7 @@ def _fit(args) -> int:
     }
     payload = {"parameters": params, "names": fit.names, "correlation": np.asarray(fit.correlation).tolist(),
                "converged": fit.converged, "cost": fit.cost, "reduced_chi2": fit.reduced_chi2,
-               "warnings": fit.warnings, "rr_options": rr_options,
+               "warnings": fit.warnings, "method": repr(method),
                "units": {"G0": "Pa", "tau": "s", "f": "-", "H": "m"}}
     (out / "fit_params.json").write_text(json.dumps(payload, indent=2) + "\n")
     written = ["fit_report.txt", "fit_params.json"]
@@ -229,7 +243,7 @@ def _model_args(p):
     p.add_argument("--rho", type=float, default=1000.0, help="layer density [kg/m^3] (1000)")
     p.add_argument("--radius", type=_positive("radius [m]"), default=0.02, help="roller radius [m] (0.02)")
     p.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
-    p.add_argument("--method", default="direct", help="direct | full | PD | PP | SP (default direct)")
+    _method_args(p)
 
 
 def _thickness(text):
@@ -253,21 +267,19 @@ def _curve(args) -> int:
     mat = jr.StandardLinearSolid(args.G0, args.tau, args.f)
     layer = jr.Layer(H=_thickness(args.H), rho=args.rho)
     speeds = np.logspace(np.log10(args.vmin), np.log10(args.vmax), args.n)
-    loads = np.asarray(args.loads)
-
-    def one(p):
-        return jr.rolling_resistance(mat, layer, radius=args.radius, load=p.P, speed=p.V,
-                                     geometry=args.geometry, method=args.method).value
-
-    values = np.asarray(jr.sweep(one, jr.Grid(P=loads, V=speeds), progress=args.progress))
+    loads = np.sort(np.asarray(args.loads))
+    res = jr.rolling_resistance_grid(mat, layer, radius=args.radius, loads=loads, speeds=speeds,
+                                     geometry=args.geometry, method=_method_from_args(args), throw=False)
+    values, codes = np.asarray(res.value).T, np.asarray(res.result).T  # (loads, speeds)
     unit = "N" if args.geometry == "sphere" else "N/m"
     with open(out / "curve.csv", "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["speed", "load", "rolling_resistance"])
-        w.writerow(["m/s", "N" if args.geometry == "sphere" else "N/m", unit])
+        w.writerow(["speed", "load", "rolling_resistance", "valid", "result"])
+        w.writerow(["m/s", "N" if args.geometry == "sphere" else "N/m", unit, "-", "-"])
         for i, P in enumerate(loads):
             for j, V in enumerate(speeds):
-                w.writerow([f"{V:.8g}", f"{P:.8g}", f"{values[i, j]:.8g}"])
+                w.writerow([f"{V:.8g}", f"{P:.8g}", f"{values[i, j]:.8g}", int(codes[i, j] == 0),
+                            jr.RESULTS.names[int(codes[i, j])]])
     plot.plot_rolling_curves(speeds, loads, values, unit=unit,
                              title=f"{args.geometry}, method {args.method}, H = {args.H} m", path=out / "curve.png")
     print(f"wrote {out / 'curve.csv'}, {out / 'curve.png'}  ({time.perf_counter() - t0:.1f} s)")
@@ -275,7 +287,10 @@ def _curve(args) -> int:
 
 
 def _sweep_cmd(args) -> int:
+    import itertools
+
     import jaxroll as jr
+    from jaxroll.grids import union
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -283,31 +298,51 @@ def _sweep_cmd(args) -> int:
     axes = dict(args.vary)
     base = {"V": 0.01, "P": 100.0, "H": _thickness(args.H), "G0": args.G0, "tau": args.tau, "f": args.f, "R": args.radius}
 
+    def models(v):
+        return jr.StandardLinearSolid(v["G0"], v["tau"], v["f"]), jr.Layer(H=v["H"], rho=args.rho)
+
+    method = _method_from_args(args)
+    if method.needs_resolution(args.geometry):
+        # one grid for the whole sweep: the union of the grids of the corners of the other axes
+        corners = [axes.get(k, [base[k]]) for k in ("H", "G0", "tau", "f", "R")]
+        loads, speeds = axes.get("P", [base["P"]]), axes.get("V", [base["V"]])
+        grids = []
+        for H, G0, tau, f, R in itertools.product(*[(min(c), max(c)) for c in corners]):
+            mat, lay = models({"H": H, "G0": G0, "tau": tau, "f": f})
+            grids.append(method.resolve(mat, lay, radius=R, loads=loads, speeds=speeds, geometry=args.geometry).grid)
+        method = eqx.tree_at(lambda m: m.grid, method, union(grids))
+
     def one(p):
         v = {k: getattr(p, k) if k in axes else base[k] for k in base}
-        return jr.rolling_resistance(jr.StandardLinearSolid(v["G0"], v["tau"], v["f"]), jr.Layer(H=v["H"], rho=args.rho),
-                                     radius=v["R"], load=v["P"], speed=v["V"], geometry=args.geometry,
-                                     method=args.method).value
+        mat, lay = models(v)
+        r = jr.rolling_resistance(mat, lay, radius=v["R"], load=v["P"], speed=v["V"], geometry=args.geometry,
+                                  method=method, throw=False)
+        return r.value, r.result
 
-    values = np.asarray(jr.sweep(one, jr.Grid(**axes), progress=not args.quiet))
+    values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=not args.quiet))
     names = list(axes)
     with open(out / "sweep.csv", "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(names + ["rolling_resistance"])
-        w.writerow([_SWEEP_NAMES[n].split("[")[1].rstrip("]") for n in names] + ["N" if args.geometry == "sphere" else "N/m"])
+        w.writerow(names + ["rolling_resistance", "valid", "result"])
+        w.writerow([_SWEEP_NAMES[n].split("[")[1].rstrip("]") for n in names]
+                   + ["N" if args.geometry == "sphere" else "N/m", "-", "-"])
         for idx in np.ndindex(values.shape):
-            w.writerow([f"{axes[n][i]:.8g}" for n, i in zip(names, idx)] + [f"{values[idx]:.8g}"])
+            w.writerow([f"{axes[n][i]:.8g}" for n, i in zip(names, idx)]
+                       + [f"{values[idx]:.8g}", int(codes[idx] == 0), jr.RESULTS.names[int(codes[idx])]])
     print(f"{values.size} points; wrote {out / 'sweep.csv'}  ({time.perf_counter() - t0:.1f} s)")
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     p = argparse.ArgumentParser(
         prog="jaxroll",
         description="Viscoelastic rolling resistance of rigid spheres and cylinders on layers. "
         "All quantities in SI units: lengths m, loads N (sphere) or N/m (cylinder), moduli Pa, "
         "times s, speeds m/s, densities kg/m^3.",
     )
+    p.add_argument("--version", action="version", version=f"jaxroll {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("demo", help="evaluate the paper's example material and layers, write plots")
     d.add_argument("--out", default="jaxroll-out", help="output folder (default: jaxroll-out)")
@@ -349,16 +384,11 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--rho", type=float, default=0.0, help="layer density [kg/m^3] (default 0: no inertia)")
     f.add_argument("--nu", type=float, default=0.5, help="Poisson's ratio (default 0.5)")
     f.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
-    f.add_argument("--method", default="direct", help="rolling-resistance method (default direct)")
+    _method_args(f)
     f.add_argument("--free", default="G0,tau,f", help="free parameters, comma separated (G0,tau,f[,H])")
     f.add_argument("--initial", type=_parse_initial, help="initial values, e.g. G0=1e6,tau=0.1,f=0.5 (SI)")
     f.add_argument("--wlf", help="WLF shift C1,C2[K],T_ref[K] for DMA at several temperatures, e.g. 8.86,101.6,293.15 "
                    "(add C1,C2 to --free to fit them)")
-    f.add_argument("--rr-option", dest="rr_options", type=_parse_rr_options, action=_CollectOptions, default=None,
-                   metavar="KEY=VALUE[,...]",
-                   help="option of the rolling-resistance model (repeatable, or comma separated; SI), e.g. the "
-                   "fixed resolution of --method full on a sphere: period=0.2,spacing=2.5e-4,window=55,n_terms=500 "
-                   "(also tol, max_steps, load_batch; see jaxroll.rolling_resistance). Integers, floats, true/false")
     f.add_argument("--starts", type=int, default=5, help="number of starts spread over two decades (5)")
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--solver", choices=["lm", "lbfgs"], default="lm")

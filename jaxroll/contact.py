@@ -74,7 +74,7 @@ cores (``benchmarks/bench_precond.py``): 3D single solves 1.8-4.3x faster, the 5
 evaluation (residual + 3 tangents) 4.2x; values unchanged to 7e-11 relative, derivatives to
 1e-10. In 1D it is off by default: the default cylinder solve gains only 1.1x, and at fine
 resolution (100 cells per half-width, the slow tests of ``tests/test_cylinder.py``) the
-preconditioned GMRES stalled above the tolerance (status 2) where the plain one converges.
+preconditioned GMRES stalled above the tolerance (``linear_solve_failed``) where the plain one converges.
 
 Differentiation
 ---------------
@@ -107,6 +107,7 @@ average at the smoothing used for fits (see :func:`jaxroll.sphere3d.solve_sphere
 
 from __future__ import annotations
 
+import functools
 import math
 
 import equinox as eqx
@@ -116,27 +117,21 @@ import numpy as np
 import scipy.special as sps
 from jax.scipy.sparse.linalg import gmres
 
+from .result import RESULTS, first_failure
+
 __all__ = [
     "ContactSolution",
     "WindowedCompliance",
     "periodic_kernel",
     "windowed_compliance",
     "solve_contact",
-    "CONTACT_STATUS",
+    "WindowKernel",
+    "active_set_loop",
+    "periodic_window_kernel",
+    "toeplitz_operator",
     "dissipation_resistance",
     "edge_gap_scale",
 ]
-
-#: Status codes of :class:`ContactSolution`.
-CONTACT_STATUS = {
-    0: "converged",
-    1: "active-set iteration did not converge within max_steps",
-    2: "linear solve on the contact set did not reach the tolerance",
-    3: "contact reaches the edge of the window/period: contact wider than the computational "
-    "domain (raise the window or the period)",
-    4: "non-finite solution (check the inputs: load > 0, finite compliance)",
-}
-
 
 # ---------------------------------------------------------------------------------------------
 # Compliance kernel (exact alias sum) and the windowed operator
@@ -244,21 +239,23 @@ def periodic_kernel(compliance_fn, period, n_cells, images: int = 2, dissipation
 
 
 class WindowedCompliance(eqx.Module):
-    """Periodic compliance restricted to a window of cells, applied by FFT (no dense matrix).
+    """A Toeplitz (convolution) operator on a window of cells, applied by FFT (no dense matrix).
 
-    ``u = C p`` for pressures and displacements on the window grid: a Toeplitz operator with the
-    exact periodic influence coefficients, applied through a circulant embedding of size
-    ``2 W`` per axis.
+    ``u = C p`` for pressures and displacements on the window grid, with
+    ``C[i, j] = offsets[i - j]``: the influence coefficients of the layer (periodic or not) for
+    every cell offset the window holds, ``-(W_k - 1) .. W_k - 1`` per axis. Applied through a
+    circulant embedding of size ``2 W`` per axis. The same operator type carries the
+    dissipation coefficients of a :class:`WindowKernel`.
 
     Attributes:
-        multiplier: ``rfftn`` of the embedded influence coefficients [m/Pa].
-        column: influence coefficients of the full period, ``c = irfftn(K)`` [m/Pa]
-            (``c[0]`` = displacement of a cell centre under unit pressure on that cell).
+        multiplier: ``rfftn`` of the embedded coefficients.
+        offsets: the coefficients, shape ``(2 W_1 - 1, ..., 2 W_d - 1)``, offset ``0`` at the
+            centre index ``W_k - 1`` (e.g. [m/Pa] for a compliance).
         shape: static window shape ``(W_1, ..., W_d)``.
     """
 
     multiplier: jax.Array
-    column: jax.Array
+    offsets: jax.Array
     shape: tuple = eqx.field(static=True)
 
     @property
@@ -266,7 +263,7 @@ class WindowedCompliance(eqx.Module):
         return len(self.shape)
 
     def __call__(self, p):
-        """Displacement [m] on the window from pressure ``p`` [Pa] on the window."""
+        """``C p`` on the window (e.g. displacement [m] from pressure [Pa])."""
         emb = tuple(2 * w for w in self.shape)
         axes = tuple(range(-self.ndim, 0))
         ph = jnp.fft.rfftn(p, s=emb, axes=axes)
@@ -275,18 +272,44 @@ class WindowedCompliance(eqx.Module):
 
     @property
     def self_compliance(self):
-        """Displacement at a cell centre per unit pressure on that cell [m/Pa]."""
-        return self.column[(0,) * self.ndim]
+        """The zero-offset coefficient (a cell centre's displacement per unit pressure on that
+        cell [m/Pa])."""
+        return self.offsets[tuple(w - 1 for w in self.shape)]
+
+    def dense(self):
+        """The dense ``(W, W)`` matrix ``C[i, j] = offsets[i - j]`` of a 1D operator."""
+        if self.ndim != 1:
+            raise ValueError("dense() is for 1D windows")
+        (W,) = self.shape
+        i = np.arange(W)
+        return self.offsets[i[:, None] - i[None, :] + W - 1]
 
 
-def windowed_compliance(kernel, n_cells, window) -> WindowedCompliance:
-    """Build the windowed operator from the Fourier multiplier ``K`` of :func:`periodic_kernel`.
+def toeplitz_operator(offsets) -> WindowedCompliance:
+    """The :class:`WindowedCompliance` of coefficients ``offsets`` (shape ``(2 W_k - 1, ...)``,
+    offset 0 at index ``W_k - 1``): the circulant embedding of size ``2 W_k`` holds offsets
+    ``0 .. W-1`` in its first half, a zero, then ``-(W-1) .. -1``."""
+    offsets = jnp.asarray(offsets)
+    shape = []
+    for n in offsets.shape:
+        if n % 2 == 0:
+            raise ValueError(f"offset arrays have odd sizes 2 W - 1; got {offsets.shape}")
+        shape.append((n + 1) // 2)
+    emb = offsets
+    for k, w in enumerate(shape):
+        # reorder axis k: offsets 0..w-1, a zero pad, offsets -(w-1)..-1
+        idx = np.concatenate([np.arange(w - 1, 2 * w - 1), [0], np.arange(0, w - 1)])
+        emb = jnp.take(emb, idx, axis=k)
+        pad = np.ones(2 * w, bool)
+        pad[w] = False
+        emb = jnp.where(pad.reshape((-1,) + (1,) * (len(shape) - k - 1)), emb, 0.0)
+    return WindowedCompliance(multiplier=jnp.fft.rfftn(emb), offsets=offsets, shape=tuple(shape))
 
-    Args:
-        kernel: ``K`` in ``rfftn`` layout for the full period grid ``n_cells``.
-        n_cells: static tuple, cells per period per axis.
-        window: static tuple, window cells per axis (``<= n_cells``).
-    """
+
+def periodic_offsets(kernel, n_cells, window):
+    """Influence coefficients of the window offsets from the ``rfftn``-layout multiplier
+    ``kernel`` of a periodic grid of ``n_cells`` cells: ``c = irfftn(kernel)`` read at the offsets
+    ``-(W-1) .. W-1`` (modulo the period) per axis."""
     n_cells = tuple(int(n) for n in n_cells)
     window = tuple(int(w) for w in window)
     if len(window) != len(n_cells):
@@ -295,21 +318,53 @@ def windowed_compliance(kernel, n_cells, window) -> WindowedCompliance:
         if not 1 <= w <= n:
             raise ValueError(f"window size {w} must lie in [1, {n}] (cells per period)")
     col = jnp.fft.irfftn(kernel, s=n_cells)
-    idx, valid = [], []
-    for w, n in zip(window, n_cells):
-        # embedded circulant of size 2w: offsets 0..w-1, (pad), -(w-1)..-1
-        off = np.concatenate([np.arange(w), [0], np.arange(-(w - 1), 0)])
-        ok = np.ones(2 * w, bool)
-        ok[w] = False
-        idx.append(np.mod(off, n))
-        valid.append(ok)
-    emb = col[np.ix_(*idx)]
-    mask = valid[0]
-    for v in valid[1:]:
-        mask = np.logical_and.outer(mask, v)
-    emb = jnp.where(mask, emb, 0.0)
-    mult = jnp.fft.rfftn(emb)
-    return WindowedCompliance(multiplier=mult, column=col, shape=window)
+    idx = [np.mod(np.arange(-(w - 1), w), n) for w, n in zip(window, n_cells)]
+    return col[np.ix_(*idx)]
+
+
+def windowed_compliance(kernel, n_cells, window) -> WindowedCompliance:
+    """The windowed operator of the periodic compliance multiplier ``K`` of
+    :func:`periodic_kernel` (``rfftn`` layout for the period grid ``n_cells``; static tuples
+    ``n_cells`` and ``window``, ``window <= n_cells``)."""
+    return toeplitz_operator(periodic_offsets(kernel, n_cells, window))
+
+
+class WindowKernel(eqx.Module):
+    """What a contact model needs of a layer on a window of cells: two Toeplitz operators.
+
+    * ``compliance``: ``u = C p``, displacement [m] at the cell centres from the cell pressures
+      [Pa];
+    * ``dissipation``: ``D`` with the exact rolling resistance of the piecewise-constant
+      pressure ``R_r = -int p du/dx dA = dA^2 p . (D p)`` ([ZG] eq. 26/29 with the solved
+      pressure; ``dA`` the cell area, [m^2] in 3D, the cell width [m] in 2D):
+      ``D(delta) = (2 pi)^-d int q_x Im T(q) S(q)^2 e^{i q.delta} d^d q`` on an infinite layer,
+      the alias sum ``(1/A) sum_m q_x Im T S^2 e^{i q_m.delta}`` on a periodic one.
+    """
+
+    compliance: WindowedCompliance
+    dissipation: WindowedCompliance
+
+    def resistance(self, pressure, cell_area):
+        """``R_r = dA^2 p . (D p)`` [N/m in 2D, N in 3D] of a window pressure [Pa]."""
+        return cell_area * cell_area * jnp.sum(pressure * self.dissipation(pressure))
+
+
+def periodic_window_kernel(kernel, kernel2, n_cells, period, window) -> WindowKernel:
+    """:class:`WindowKernel` of a periodic grid from the multipliers ``(K, K2)`` of
+    :func:`periodic_kernel` (``dissipation=True``) or :func:`jaxroll.sphere3d.sphere_kernel`.
+
+    With ``A = prod L_k`` and ``dA = A/prod N_k``, ``R_r = (dA^2/A) sum_r |DFT(p)_r|^2 K2_r``
+    over the full spectrum equals ``dA^2 sum_jk p_j p_k D_{j-k}`` with
+    ``D = irfftn(K2)/dA``: exact for a pressure carried on the window.
+    """
+    n_cells = tuple(int(n) for n in n_cells)
+    area = 1.0
+    for L in period:
+        area = area * L
+    dA = area / math.prod(n_cells)
+    C = toeplitz_operator(periodic_offsets(kernel, n_cells, window))
+    D = toeplitz_operator(periodic_offsets(kernel2, n_cells, window) / dA)
+    return WindowKernel(compliance=C, dissipation=D)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -332,7 +387,8 @@ class ContactSolution(eqx.Module):
             penetration) equation and the linear residual (scales: load mode, ``p_s`` = mean
             contact pressure of the initial set and ``g_s = c0 p_s``; penetration mode,
             ``g_s = |d|`` and ``p_s = g_s/c0``; ``c0`` = self compliance).
-        status: integer code, see :data:`CONTACT_STATUS` (0 = converged).
+        result: :data:`jaxroll.result.RESULTS` code (``successful``, ``max_steps_reached``,
+            ``linear_solve_failed``, ``window_too_small``, ``nonfinite``).
     """
 
     pressure: jax.Array
@@ -342,11 +398,47 @@ class ContactSolution(eqx.Module):
     displacement: jax.Array
     iterations: jax.Array
     residual: jax.Array
-    status: jax.Array
+    result: jax.Array
 
 
 def _flat(p, d):
     return jnp.concatenate([p.ravel(), d[None]])
+
+
+def active_set_loop(step, state0, aux0, max_steps):
+    """The primal-dual active-set iteration shared by every contact solver of the library.
+
+    ``step(state, aux) -> (new_state, aux)`` solves the equality-constrained problem on the
+    contact set ``state`` (a boolean mask, or any pytree that describes the set, such as an
+    interval ``(first, length)``) and returns the next set (cells in contact with ``p > 0``
+    plus free cells with ``g < 0``) and any solution data ``aux`` (e.g. the Krylov warm start).
+    The loop stops when the set repeats, when ``aux`` holds a non-finite value, or after
+    ``max_steps`` steps; it runs on ``stop_gradient`` data (the solvers differentiate the final
+    solve on the converged set, never the iteration).
+
+    Returns:
+        ``(state, aux, iterations, converged)``.
+    """
+
+    def same(a, b):
+        return functools.reduce(jnp.logical_and, [jnp.all(x == y) for x, y in zip(
+            jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b))], jnp.asarray(True))
+
+    def finite(a):
+        return functools.reduce(jnp.logical_and, [jnp.all(jnp.isfinite(x)) for x in jax.tree_util.tree_leaves(a)
+                                                  if jnp.issubdtype(x.dtype, jnp.inexact)], jnp.asarray(True))
+
+    def body(c):
+        state, aux, it, _ = c
+        new, aux = step(state, aux)
+        done = same(new, state) | ~finite(aux)
+        new = jax.tree_util.tree_map(lambda n, o: jnp.where(done, o, n), new, state)
+        return new, aux, it + 1, done
+
+    def cond(c):
+        return (~c[3]) & (c[2] < max_steps)
+
+    return jax.lax.while_loop(cond, body, (state0, aux0, jnp.asarray(0), jnp.asarray(False)))
 
 
 def solve_contact(
@@ -362,9 +454,9 @@ def solve_contact(
     linear_restart: int = 80,
     linear_maxiter: int = 20,
     linear_method: str = "incremental",
+    linear_solver: str = "gmres",
     linear_preconditioner: bool | None = None,
     smoothing=None,
-    throw: bool = True,
 ) -> "ContactSolution":
     """Solve frictionless steady-state rolling contact of a rigid profile (any dimension).
 
@@ -386,6 +478,10 @@ def solve_contact(
             geometric overlap ``h < d``).
         tol: tolerance on the scaled residual (the linear solves use ``1e-3 tol``).
         max_steps: static maximum number of active-set iterations.
+        linear_solver: static, the linear solver of each contact-set system: ``"gmres"``
+            (default; matrix-free restarted GMRES on the FFT operator) or ``"dense"`` (LU on the
+            explicit ``(n + 1) x (n + 1)`` system, built by applying the operator to the unit
+            vectors: exact to rounding and faster for 1D windows of a few hundred cells).
         linear_restart, linear_maxiter, linear_method: GMRES Krylov size, restarts and
             ``solve_method`` per linear solve.
         linear_preconditioner: static; right-precondition GMRES with the inverse circulant
@@ -407,7 +503,7 @@ def solve_contact(
             smoothed and exact problems differ by ``O(eps)`` in ``d`` and at the edge cells).
             Solved by damped Newton on the smoothed equations, started from the exact
             (active-set) solution.
-        throw: raise (``eqx.error_if``) on failure if True; otherwise report it in ``status``.
+    Never raises on a failed solve: the reason is in ``ContactSolution.result``.
 
     Returns:
         :class:`ContactSolution`; ``pressure`` and ``penetration`` are differentiable
@@ -436,6 +532,8 @@ def solve_contact(
     initial_contact = jnp.asarray(initial_contact, bool)
     if initial_contact.shape != h.shape:
         raise ValueError("initial_contact must have the window shape")
+    if linear_solver not in ("gmres", "dense"):
+        raise ValueError(f"linear_solver must be 'gmres' or 'dense'; got {linear_solver!r}")
     if smoothing is not None:
         smoothing = eqx.error_if(jnp.asarray(smoothing, dtype=float), ~(jnp.asarray(smoothing) > 0),
                                  "smoothing must be a positive gap scale [m] (or None)")
@@ -452,8 +550,9 @@ def solve_contact(
         linear_restart=linear_restart,
         linear_maxiter=linear_maxiter,
         linear_method=linear_method,
-        linear_preconditioner=(len(compliance.shape) == 2) if linear_preconditioner is None else bool(linear_preconditioner),
-        throw=throw,
+        linear_solver=linear_solver,
+        linear_preconditioner=((len(compliance.shape) == 2) if linear_preconditioner is None
+                               else bool(linear_preconditioner)) and linear_solver == "gmres",
     )
 
 
@@ -476,8 +575,8 @@ def _solve_contact(
     linear_restart: int = 80,
     linear_maxiter: int = 20,
     linear_method: str = "incremental",
+    linear_solver: str = "gmres",
     linear_preconditioner: bool = True,
-    throw: bool = True,
 ) -> ContactSolution:
     shape = compliance.shape
     h = profile
@@ -524,6 +623,9 @@ def _solve_contact(
         return jnp.concatenate([(-maskf * hh / g_s).ravel(), target[None]])
 
     def lin_solve(mv, b, x0, precond=None):
+        if linear_solver == "dense":  # the operator's matrix, column by column (mv is linear)
+            A = jax.vmap(mv, out_axes=1)(jnp.eye(b.shape[0], dtype=b.dtype))
+            return jnp.linalg.solve(A, b)
         if precond is None:
             x, _ = gmres(mv, b, x0=x0, tol=tol * 1e-3, atol=0.0, restart=linear_restart,
                          maxiter=linear_maxiter, solve_method=linear_method)
@@ -613,24 +715,14 @@ def _solve_contact(
     x_init = _flat(mask0.astype(float), jnp.asarray(0.0))
     eps = 1e-12
 
-    def body(state):
-        mask, x, it, _ = state
+    def step(mask, x):
         mv = make_matvec(C_ng, mask, lw_ng)
         x = lin_solve(mv, rhs(h_ng, mask, b_ratio), x, active_set_precond(mask, lw_ng))
         pt = x[:-1].reshape(shape)
         gt = h_ng / g_s - x[-1] + C_ng(pt) * (p_s / g_s)
-        new = jnp.where(mask, pt > -eps, gt < -eps)
-        done = jnp.all(new == mask) | ~jnp.all(jnp.isfinite(x))
-        new = jnp.where(done, mask, new)
-        return new, x, it + 1, done
+        return jnp.where(mask, pt > -eps, gt < -eps), x
 
-    def cond(state):
-        _, _, it, done = state
-        return (~done) & (it < max_steps)
-
-    mask, x_ng, iters, done = jax.lax.while_loop(
-        cond, body, (mask0, x_init, jnp.asarray(0), jnp.asarray(False))
-    )
+    mask, x_ng, iters, done = active_set_loop(step, mask0, x_init, max_steps)
     mask = sg(mask)
     x_ng = sg(x_ng)
 
@@ -736,18 +828,8 @@ def _solve_contact(
     edge = _edge_mask(shape)
     touches = jnp.any(mask & edge)
     finite = jnp.all(jnp.isfinite(p)) & jnp.isfinite(d)
-    status = jnp.where(
-        ~finite,
-        4,
-        jnp.where(touches, 3, jnp.where(~done, 1, jnp.where(residual > tol * 1e3, 2, 0))),
-    )
-    if throw:
-        p = eqx.branched_error_if(
-            p,
-            status != 0,
-            jnp.clip(status, 1, 4) - 1,
-            [f"contact solver failed: {CONTACT_STATUS[k]}" for k in (1, 2, 3, 4)],
-        )
+    result = first_failure((~finite, RESULTS.nonfinite), (touches, RESULTS.window_too_small),
+                           (~done, RESULTS.max_steps_reached), (residual > tol * 1e3, RESULTS.linear_solve_failed))
     return ContactSolution(
         pressure=p,
         penetration=d,
@@ -756,7 +838,7 @@ def _solve_contact(
         displacement=u,
         iterations=iters,
         residual=residual,
-        status=status,
+        result=result,
     )
 
 

@@ -27,7 +27,7 @@ sign fix), the rolling resistance ``R_r = -int p du/dx dA`` is, by Parseval,
 
 Periodic and aperiodic results are different physics at high speed: the periodic series is a
 train of rollers a period apart, and when ``V tau > ~L`` the layer does not recover between
-passes (-2 to -6 % at 1-10 m/s for L = 0.2 m, DESIGN section 2). The aperiodic value is the
+passes (-2 to -6 % at 1-10 m/s for L = 0.2 m, docs/design.md section 2). The aperiodic value is the
 single roller on an infinite layer and is the default.
 
 Quadrature of the aperiodic integrals (all static, vectorised; ~6600 ``G*`` values and ~130
@@ -82,7 +82,7 @@ from .pressure import (
     contact_radius,
     pressure_transform,
 )
-from .result import RollingResult
+from .result import RESULTS, RollingResult, first_failure
 
 __all__ = ["direct_rolling_resistance", "select_pressure", "QuadratureSettings"]
 
@@ -460,8 +460,9 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
 
     Returns:
         :class:`jaxroll.result.RollingResult`: ``value`` [N or N/m], ``contact_radius`` [m],
-        ``gamma``, ``regime`` (pressure-model code), ``valid`` (model validity range, and
-        ``r_c`` inside the period), ``truncation`` (estimated relative error: quadrature
+        ``gamma``, ``regime`` (pressure-model code), ``result`` (``outside_pressure_model``
+        outside the model's validity range; ``valid`` is ``result == 0``), ``truncation``
+        (estimated relative error: quadrature
         estimate for the aperiodic limit; for the periodic series the share of the outer
         half-shell ``max(m, |n|) > N/2``, a rough measure of the terms left out).
     """
@@ -505,5 +506,5 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
 
     pos = value > 0
     trunc = jnp.where(pos, err / where_safe(pos, value, 1.0), jnp.where(err > 0, jnp.inf, 0.0))
-    return RollingResult(value=value, contact_radius=r_c, gamma=gamma, regime=code, valid=valid,
-                         truncation=trunc)
+    return RollingResult(value=value, contact_radius=r_c, gamma=gamma, regime=code, truncation=trunc,
+                         result=first_failure((~valid, RESULTS.outside_pressure_model)))

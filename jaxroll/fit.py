@@ -369,44 +369,37 @@ class FitResult:
 # the fit
 
 
-def _rolling_model(radius, geometry, method, rr_options):
+def _rolling_model(radius, geometry, method):
     """``predict(material, layer, data) -> R_r`` at the data points ``data["V"], data["P"]``.
 
-    ``method="full"`` on a sphere with a fixed resolution (``period``, ``spacing`` and
-    ``window`` in ``rr_options``) uses :func:`jaxroll.sphere3d.rolling_resistance_sweep` on the
-    grid of the distinct speeds x distinct loads (one kernel per speed, warm-started loads) and
-    picks the data points from it (``data["iv"], data["ip"]``); every other case vmaps
+    A full model evaluates the table of the distinct speeds x distinct loads through
+    :func:`jaxroll.rolling_resistance_grid` (one kernel per speed, warm-started loads) and picks
+    the data points from it (``data["iv"], data["ip"]``); every other method vmaps
     :func:`jaxroll.rolling_resistance` over the points."""
-    from .rolling import rolling_resistance  # the public dispatcher (all methods)
+    from .rolling import rolling_resistance, rolling_resistance_grid  # the front doors
 
-    if _use_sweep(geometry, method, rr_options):
-        from .sphere3d import rolling_resistance_sweep
-
-        opts = {k: v for k, v in rr_options.items() if k in _SWEEP_KEYS}  # the sweep never throws
-
+    if _use_table(method):
         def predict(material, layer, data):
-            out = rolling_resistance_sweep(material, layer, radius, data["Pu"], data["Vu"], **opts)
-            return out["value"][data["iv"], data["ip"]]
+            out = rolling_resistance_grid(material, layer, radius=radius, loads=data["Pu"], speeds=data["Vu"],
+                                          geometry=geometry, method=method, throw=False)
+            return out.value[data["iv"], data["ip"]]
 
         return predict
 
     def predict(material, layer, data):
         def one(v, p):
-            return rolling_resistance(
-                material, layer, radius=radius, load=p, speed=v, geometry=geometry, method=method, **rr_options
-            ).value
+            return rolling_resistance(material, layer, radius=radius, load=p, speed=v, geometry=geometry,
+                                      method=method, throw=False).value
 
         return jax.vmap(one)(data["V"], data["P"])
 
     return predict
 
 
-_SWEEP_KEYS = {"period", "spacing", "window", "n_terms", "tol", "max_steps", "load_batch", "edge_smoothing"}
+def _use_table(method):
+    from .methods import Full
 
-
-def _use_sweep(geometry, method, rr_options):
-    return (geometry == "sphere" and method == "full" and {"period", "spacing", "window"} <= set(rr_options)
-            and set(rr_options) <= _SWEEP_KEYS | {"throw"})
+    return isinstance(method, Full)
 
 
 # Compiled residual/Jacobian (and L-BFGS loop) per static configuration: repeated fits with the
@@ -587,7 +580,6 @@ def fit_material(
     absolute_sigma=False,
     max_steps=500,
     rtol=1e-10,
-    rr_options=None,
     jac_step=None,
     progress=False,
 ) -> FitResult:
@@ -600,14 +592,15 @@ def fit_material(
             the fitted material has the same type.
         layer: :class:`jaxroll.Layer` (required with rolling data; ``"H"`` may be free).
         radius: roller radius [m] (required with rolling data).
-        geometry, method, rr_options: passed to :func:`jaxroll.rolling_resistance`. For
-            ``method="full"`` on a sphere give a fixed resolution in ``rr_options`` (``period``,
-            ``spacing``, ``window``, optional ``n_terms``): the model is then evaluated with
-            :func:`jaxroll.sphere3d.rolling_resistance_sweep` on the distinct speeds x loads
-            (without them the inputs are traced and the automatic resolution falls back to
-            ``DEFAULT_TRACED_CELLS`` per point). For multi-parameter full-model fits add
-            ``edge_smoothing`` (0.25 at the paper's grid, 0.5 on coarser ones): the exact
-            discrete R_r wiggles with the contact set and LM stalls on it (fitting/README.md).
+        geometry, method: passed to :func:`jaxroll.rolling_resistance` (a method object or a
+            shortcut string; default ``"direct"``). The material parameters are traced during
+            the fit, so a method with a grid must be resolved first
+            (``jr.Full().resolve(initial, layer, radius=..., loads=..., speeds=...)`` or a
+            :class:`jaxroll.FixedGrid`); the full model is then evaluated on the table of the
+            distinct speeds x loads (:func:`jaxroll.rolling_resistance_grid`). For
+            multi-parameter full-model fits use ``jr.Full(grid, edge_smoothing=0.25)`` (0.25 at
+            the paper's grid, 0.5 on coarser ones): the exact discrete R_r wiggles with the
+            contact set and LM stalls on it (fitting/README.md).
         free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``).
         sigma: standard deviations of ``measured`` (default: ``|measured|``, i.e. relative).
         dma: :class:`DMAData` to fit jointly (or alone); ``dma_sigma``: ``(sigma', sigma'')``
@@ -623,12 +616,12 @@ def fit_material(
             ``<= rtol * cost``; L-BFGS: gradient norm ``<= rtol``).
         jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
             differences in the log-parameters with step ``h`` (LM and the covariance), e.g. for
-            models that are only piecewise smooth at a fixed resolution (``method="full"``
-            without ``edge_smoothing``: the contact area changes in whole cells; see
-            fitting/README.md for what this does and does not fix).
+            models that are only piecewise smooth at a fixed resolution (a full model without
+            ``edge_smoothing``: the contact area changes in whole cells; see fitting/README.md
+            for what this does and does not fix).
         progress: print one line per residual+Jacobian evaluation (evaluation count, chi^2,
-            parameters, elapsed time) for long fits (``method="full"``: seconds per
-            evaluation), or a callable ``progress(count, chi2, params_dict, seconds)``.
+            parameters, elapsed time) for long fits (a full model: seconds per evaluation), or a
+            callable ``progress(count, chi2, params_dict, seconds)``.
 
     The compiled residual/Jacobian is cached per static configuration (everything except the
     initial values of the free parameters and the data values), so repeated fits of data of
@@ -654,6 +647,16 @@ def fit_material(
         raise ValueError("'H' can only be fitted from rolling-resistance data with a layer")
     if dma is not None and dma.temperature is not None and shift is None:
         raise ValueError("DMA data at several temperatures need a shift (jr.WLF or jr.Arrhenius)")
+    if have_rr:
+        from .methods import as_method
+
+        method = as_method(method)
+        method.check_geometry(geometry)
+        if method.needs_resolution(geometry):
+            raise ValueError(f"{type(method).__name__} sizes its grid from the inputs, which a fit varies: resolve it "
+                             f"once over the data, method = method.resolve(initial, layer, radius=..., "
+                             f"loads=measured_loads, speeds=measured_speeds, geometry=...), or give a "
+                             f"jr.FixedGrid")
 
     params = _Params((initial, layer, shift), free, bounds)
 
@@ -662,7 +665,7 @@ def fit_material(
     if rolling is not None:
         data.update(V=jnp.asarray(rolling.speed), P=jnp.asarray(rolling.load), rr=jnp.asarray(rolling.value),
                     rr_sig=jnp.asarray(rolling.value if rolling.sigma is None else rolling.sigma))
-        if _use_sweep(geometry, method, dict(rr_options or {})):
+        if _use_table(method):
             Vu, iv = np.unique(rolling.speed, return_inverse=True)
             Pu, ip = np.unique(rolling.load, return_inverse=True)  # sorted: warm-started load sweep
             data.update(Vu=jnp.asarray(Vu), Pu=jnp.asarray(Pu), iv=jnp.asarray(iv.ravel()), ip=jnp.asarray(ip.ravel()))
@@ -682,18 +685,17 @@ def fit_material(
     # values are not part of the static configuration)
     template = params.build(jnp.zeros(k))
     tparams = _Params(template, free, bounds)
-    rr_options = dict(rr_options or {})
     try:
         leaves, treedef = jax.tree_util.tree_flatten(template)
         key = (treedef, _freeze(leaves), tuple(free), tuple(map(tuple, tparams.shapes)), tuple(tparams.lo),
-               tuple(tparams.hi), have_rr and (float(radius), geometry, method, _freeze(rr_options)),
+               tuple(tparams.hi), have_rr and (float(radius), geometry, method),
                int(max_steps), float(rtol), None if jac_step is None else float(jac_step))
         hash(key)
     except TypeError:
         key = None
     bundle = _CACHE.pop(key, None) if key is not None else None
     if bundle is None:
-        predict_rr = _rolling_model(radius, geometry, method, rr_options) if have_rr else None
+        predict_rr = _rolling_model(radius, geometry, method) if have_rr else None
         bundle = _Compiled(tparams, predict_rr, max_steps, rtol, None if jac_step is None else float(jac_step))
     if key is not None:
         _CACHE[key] = bundle

@@ -11,7 +11,7 @@ dissipated). *Deviation from paper*: [ZG] eq. 22 uses ``G*(omega_m)`` as printed
 negative rolling resistance; and its ``beta_y`` (eq. 23) carries ``rho V^2 q_y^2`` where the
 inertia term is ``rho V^2 q_x^2`` (``d^2/dt^2 = V^2 d^2/dx^2`` acts on every component).
 
-Closed forms (DESIGN.md section 2), ``q = |q|``, ``a = qH``:
+Closed forms (docs/design.md section 2), ``q = |q|``, ``a = qH``:
 
 * incompressible, with inertia, ``eps = rho V^2 q_x^2 / (G_m q^2)``, ``s = sqrt(1 - eps)``,
   ``b = a s``::
@@ -64,21 +64,21 @@ __all__ = [
 
 
 def _density(x):
-    """Converter of ``Layer.rho``: a concrete number stays a NumPy float64 array.
+    """Converter of ``Layer.rho``: a concrete scalar stays a Python float.
 
-    ``jnp.asarray`` of a literal inside ``jit`` is staged as a tracer, so a ``Layer(H)`` built
-    in traced code (``jax.grad(lambda H: ... jr.Layer(H) ...)``) would no longer *know* that its
-    default ``rho = 0``: :func:`is_quasistatic` would be False and every compliance evaluation
-    would take the general path with inertia (~5x the cost, ~10x under reverse mode). A NumPy
-    array is a constant at trace time; traced and JAX inputs are converted as usual.
+    Whether the layer has inertia decides the compliance formulation (the factorised
+    quasi-static form is ~5x cheaper, ~10x under reverse mode), so ``rho = 0`` must be known when
+    a program is traced. A Python float is a constant under ``jax.jit`` and a static value under
+    ``equinox.filter_jit`` (the front doors), so a ``Layer(H)`` built in traced code or passed to
+    a front door keeps ``is_quasistatic`` True; JAX arrays and tracers (e.g. a differentiated
+    ``rho``) take the general path with inertia.
     """
     if isinstance(x, (bool, np.bool_)):
         return _leaf(x)
-    if isinstance(x, (int, float, np.integer, np.floating)) or (
-        isinstance(x, np.ndarray) and np.issubdtype(x.dtype, np.number)
-    ):
+    if isinstance(x, (int, float, np.integer, np.floating)) or (isinstance(x, np.ndarray) and x.ndim == 0
+                                                              and np.issubdtype(x.dtype, np.number)):
         check_x64()
-        return np.asarray(x, dtype=np.float64)
+        return float(x)
     return _leaf(x)
 
 
@@ -100,10 +100,11 @@ class Layer(eqx.Module):
     def __check_init__(self):
         _require("H", jnp.where(jnp.isinf(self.H), 1.0, self.H) if isinstance(self.H, jax.Array) else self.H,
                  lambda v: v > 0, "a positive thickness in m (or jnp.inf for a half-space)")
-        _require("rho", self.rho, lambda v: v >= 0, "a non-negative density in kg/m^3")
+        _require("rho", np.asarray(self.rho) if isinstance(self.rho, float) else self.rho, lambda v: v >= 0,
+                 "a non-negative density in kg/m^3")
         if not (0.0 <= float(self.nu) <= 0.5):
             raise ValueError(f"nu must lie in [0, 0.5]; got {self.nu}")
-        if self.nu < 0.5 and isinstance(self.rho, (jax.Array, np.ndarray)) and not isinstance(
+        if self.nu < 0.5 and isinstance(self.rho, (float, jax.Array, np.ndarray)) and not isinstance(
             self.rho, jax.core.Tracer
         ):
             if np.any(np.asarray(self.rho) != 0):
@@ -291,6 +292,8 @@ def _static_t1_jvp(nu, primals, tangents):
 def is_quasistatic(layer: Layer) -> bool:
     """True when ``rho`` is concretely zero (a traced ``rho`` takes the general path)."""
     rho = layer.rho
+    if isinstance(rho, float):
+        return rho == 0.0
     if isinstance(rho, jax.core.Tracer):
         return False
     return bool(np.all(np.asarray(rho) == 0.0))

@@ -10,6 +10,8 @@ Every material is an :class:`equinox.Module` whose physical floats are pytree le
 
 from __future__ import annotations
 
+import abc
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -18,6 +20,8 @@ import numpy as np
 from ._numerics import as_float, to_complex
 
 __all__ = [
+    "AbstractMaterial",
+    "AbstractShift",
     "StandardLinearSolid",
     "GeneralizedMaxwell",
     "WLF",
@@ -60,7 +64,53 @@ def _require(name: str, value, predicate, message: str) -> None:
         raise ValueError(f"{name} must be {message}; got {v!r}")
 
 
-class StandardLinearSolid(eqx.Module):
+class AbstractMaterial(eqx.Module):
+    """A linear viscoelastic material in shear: the protocol every material implements.
+
+    Methods (all SI; ``omega`` [rad/s], ``t`` [s], moduli [Pa]):
+
+    * ``complex_modulus(omega)``: ``G*(omega) = G' + i G''`` (``e^{+i omega t}`` convention,
+      ``G'' > 0`` for ``omega > 0``);
+    * ``relaxation_modulus(t)``: ``G(t)``;
+    * ``relaxed_modulus()``: ``G'(0)``, ``glassy_modulus()``: ``G'(inf)``;
+    * ``longest_time()``: the slowest retardation (creep) time [s]: the time over which the
+      layer keeps the memory of a load. Grid rules need it (the material behind a roller at
+      speed ``V`` recovers over a length ``~ V`` times it).
+
+    Callers use these methods (or the module-level functions of the same names); they never
+    probe a material's fields.
+    """
+
+    @abc.abstractmethod
+    def complex_modulus(self, omega) -> jax.Array:
+        """``G*(omega)`` [Pa] at angular frequency ``omega`` [rad/s] (float64 array)."""
+
+    @abc.abstractmethod
+    def relaxation_modulus(self, t) -> jax.Array:
+        """``G(t)`` [Pa] at time ``t`` [s]."""
+
+    @abc.abstractmethod
+    def relaxed_modulus(self) -> jax.Array:
+        """Relaxed (static, long-term) shear modulus ``G'(0)`` [Pa]."""
+
+    @abc.abstractmethod
+    def glassy_modulus(self) -> jax.Array:
+        """Glassy (instantaneous) shear modulus ``G'(inf)`` [Pa]."""
+
+    @abc.abstractmethod
+    def longest_time(self) -> jax.Array:
+        """Slowest retardation time [s] (see the class docstring)."""
+
+
+class AbstractShift(eqx.Module):
+    """A time-temperature shift law: ``log a_T`` at temperature ``T`` [K], ``a_T(T_ref) = 1``."""
+
+    @abc.abstractmethod
+    def log_shift(self, T) -> jax.Array:
+        """Natural logarithm of the shift factor ``a_T`` at temperature ``T`` [K]."""
+
+
+class StandardLinearSolid(AbstractMaterial):
     """Standard linear solid (three-parameter Zener solid), [ZG] eq. 12.
 
     ``G*(omega) = G0 (1 + i omega tau) / (1 + i omega tau/(1+f))``
@@ -93,21 +143,25 @@ class StandardLinearSolid(eqx.Module):
             tau=jnp.atleast_1d(self.tau / (1.0 + self.f)),
         )
 
-    def _complex_modulus(self, omega):
-        iwt = _i_times(omega * self.tau)
+    def complex_modulus(self, omega):
+        iwt = _i_times(as_float(omega) * self.tau)
         return to_complex(self.G0) * (1.0 + iwt) / (1.0 + iwt / to_complex(1.0 + self.f))
 
-    def _relaxation_modulus(self, t):
-        return self.G0 * (1.0 + self.f * jnp.exp(-t * (1.0 + self.f) / self.tau))
+    def relaxation_modulus(self, t):
+        return self.G0 * (1.0 + self.f * jnp.exp(-as_float(t) * (1.0 + self.f) / self.tau))
 
-    def _relaxed(self):
+    def relaxed_modulus(self):
         return self.G0
 
-    def _glassy(self):
+    def glassy_modulus(self):
         return self.G0 * (1.0 + self.f)
 
+    def longest_time(self):
+        """The retardation time ``tau`` ([ZG] eq. 12: ``1/G*`` has its pole at ``omega = i/tau``)."""
+        return self.tau
 
-class GeneralizedMaxwell(eqx.Module):
+
+class GeneralizedMaxwell(AbstractMaterial):
     """Generalized Maxwell solid (Prony series).
 
     ``G*(omega) = G_inf + sum_i G_i (i omega tau_i) / (1 + i omega tau_i)``,
@@ -130,23 +184,30 @@ class GeneralizedMaxwell(eqx.Module):
         if hasattr(self.G, "shape") and hasattr(self.tau, "shape") and self.G.shape != self.tau.shape:
             raise ValueError(f"G and tau must have the same shape; got {self.G.shape} and {self.tau.shape}")
 
-    def _complex_modulus(self, omega):
-        omega = jnp.asarray(omega)[..., None]
+    def complex_modulus(self, omega):
+        omega = as_float(omega)[..., None]
         iwt = _i_times(omega * self.tau)
         return to_complex(self.G_inf) + jnp.sum(to_complex(self.G) * iwt / (1.0 + iwt), axis=-1)
 
-    def _relaxation_modulus(self, t):
-        t = jnp.asarray(t)[..., None]
+    def relaxation_modulus(self, t):
+        t = as_float(t)[..., None]
         return self.G_inf + jnp.sum(self.G * jnp.exp(-t / self.tau), axis=-1)
 
-    def _relaxed(self):
+    def relaxed_modulus(self):
         return self.G_inf
 
-    def _glassy(self):
+    def glassy_modulus(self):
         return self.G_inf + jnp.sum(self.G, axis=-1)
 
+    def longest_time(self):
+        """Upper estimate of the slowest retardation time: the slowest relaxation time times
+        ``G'(inf)/G'(0)`` (exact for one term, where it equals the standard linear solid's
+        ``tau``; the retardation times interlace the relaxation times and the slowest one lies
+        between ``max tau_i`` and this bound)."""
+        return jnp.max(self.tau, axis=-1) * self.glassy_modulus() / self.relaxed_modulus()
 
-class WLF(eqx.Module):
+
+class WLF(AbstractShift):
     """Williams-Landel-Ferry shift: ``log10 a_T = -C1 (T - T_ref) / (C2 + T - T_ref)``.
 
     Args:
@@ -157,7 +218,7 @@ class WLF(eqx.Module):
     C2: jax.Array = eqx.field(converter=_leaf)
     T_ref: jax.Array = eqx.field(converter=_leaf)
 
-    def _log_shift(self, T):
+    def log_shift(self, T):
         dT = T - self.T_ref
         denom = self.C2 + dT
         denom = eqx.error_if(
@@ -166,7 +227,7 @@ class WLF(eqx.Module):
         return -self.C1 * dT / denom * jnp.log(10.0)
 
 
-class Arrhenius(eqx.Module):
+class Arrhenius(AbstractShift):
     """Arrhenius shift: ``ln a_T = (E_a / R_gas) (1/T - 1/T_ref)``.
 
     Args:
@@ -176,42 +237,46 @@ class Arrhenius(eqx.Module):
     activation_energy: jax.Array = eqx.field(converter=_leaf)
     T_ref: jax.Array = eqx.field(converter=_leaf)
 
-    def _log_shift(self, T):
+    def log_shift(self, T):
         return self.activation_energy / GAS_CONSTANT * (1.0 / T - 1.0 / self.T_ref)
 
 
-def shift_factor(shift: WLF | Arrhenius, T) -> jax.Array:
+def shift_factor(shift: AbstractShift, T) -> jax.Array:
     """Time-temperature shift factor ``a_T`` at temperature ``T`` [K] (``a_T(T_ref) = 1``).
 
     The material at temperature ``T`` behaves as the reference material at ``omega a_T``.
     """
     T = as_float(T)
     T = eqx.error_if(T, T <= 0, "temperature must be positive, in kelvin")
-    return jnp.exp(shift._log_shift(T))
+    return jnp.exp(shift.log_shift(T))
 
 
-class AtTemperature(eqx.Module):
+class AtTemperature(AbstractMaterial):
     """A material evaluated at temperature ``T`` through time-temperature superposition:
     ``G*(omega; T) = G*_ref(omega a_T)`` and ``G(t; T) = G_ref(t / a_T)``."""
 
-    material: eqx.Module
-    shift: eqx.Module
+    material: AbstractMaterial
+    shift: AbstractShift
     T: jax.Array = eqx.field(converter=_leaf)
 
-    def _complex_modulus(self, omega):
-        return self.material._complex_modulus(omega * shift_factor(self.shift, self.T))
+    def complex_modulus(self, omega):
+        return self.material.complex_modulus(as_float(omega) * shift_factor(self.shift, self.T))
 
-    def _relaxation_modulus(self, t):
-        return self.material._relaxation_modulus(t / shift_factor(self.shift, self.T))
+    def relaxation_modulus(self, t):
+        return self.material.relaxation_modulus(as_float(t) / shift_factor(self.shift, self.T))
 
-    def _relaxed(self):
-        return self.material._relaxed()
+    def relaxed_modulus(self):
+        return self.material.relaxed_modulus()
 
-    def _glassy(self):
-        return self.material._glassy()
+    def glassy_modulus(self):
+        return self.material.glassy_modulus()
+
+    def longest_time(self):
+        """The reference material's slowest retardation time times ``a_T``."""
+        return self.material.longest_time() * shift_factor(self.shift, self.T)
 
 
-def at_temperature(material, shift: WLF | Arrhenius, T) -> AtTemperature:
+def at_temperature(material: AbstractMaterial, shift: AbstractShift, T) -> AtTemperature:
     """``material`` (characterised at ``shift.T_ref``) evaluated at temperature ``T`` [K]."""
     return AtTemperature(material, shift, T)
 
@@ -219,7 +284,7 @@ def at_temperature(material, shift: WLF | Arrhenius, T) -> AtTemperature:
 def complex_modulus(material, omega) -> jax.Array:
     """Complex shear modulus ``G*(omega) = G' + i G''`` [Pa] at angular frequency ``omega``
     [rad/s] (any shape; ``e^{+i omega t}`` convention, [ZG] eq. 12)."""
-    return material._complex_modulus(as_float(omega))
+    return material.complex_modulus(omega)
 
 
 def storage_modulus(material, omega) -> jax.Array:
@@ -240,14 +305,14 @@ def tan_delta(material, omega) -> jax.Array:
 
 def relaxation_modulus(material, t) -> jax.Array:
     """Shear relaxation modulus ``G(t)`` [Pa] at time ``t`` [s] (closed form for every model)."""
-    return material._relaxation_modulus(as_float(t))
+    return material.relaxation_modulus(t)
 
 
 def relaxed_modulus(material) -> jax.Array:
     """Relaxed (static, long-term) shear modulus ``G'(0)`` [Pa]."""
-    return material._relaxed()
+    return material.relaxed_modulus()
 
 
 def glassy_modulus(material) -> jax.Array:
     """Glassy (instantaneous) shear modulus ``G'(inf)`` [Pa]."""
-    return material._glassy()
+    return material.glassy_modulus()

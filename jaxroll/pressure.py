@@ -9,7 +9,7 @@ elastic* profile of a rigid sphere (or cylinder) pressed on the layer. Each mode
   (cylinder, load per unit length ``P'`` [N/m]) with the transform convention
   ``p_hat(q) = int p(x) e^{-i q.x} dA``.
 
-Models (``model`` argument; DESIGN section 2):
+Models (``model`` argument; docs/design.md section 2):
 
 =====================  ===============================  ====================================
 model                  sphere, ``S(x)``                 cylinder (plane strain), ``S(x)``
@@ -24,40 +24,24 @@ model                  sphere, ``S(x)``                 cylinder (plane strain),
                        ``r_c`` eq. 45 (corrected)        ``a = (3 P' R H (1-2nu)/(4G(1-nu)))^(1/3)``
 =====================  ===============================  ====================================
 
-Moduli. The contact radius uses the **static** modulus by default: ``G = G'(0)`` (``G0`` of a
-standard linear solid) and ``E = 2 G (1 + nu)`` (``= 3 G0`` when ``nu = 0.5``); this reproduces
-the radii [ZG] states (H = 5 mm, P = 120 N: 4.87 mm; H = 10 um, R = 2000 m, P = 0.2..2 kN:
-3.33..4.88 mm). ``modulus="glassy"`` uses ``G'(inf)``; ``modulus="dynamic"`` uses
-``G'(V / r_static)`` (the storage modulus at the frequency of the static contact radius);
-a number is used as the shear modulus in Pa.
-
-Deviations from paper: eq. 45 lacks ``P``; it is
-``r_c = (4 P R H (1+nu)(1-2nu)/((1-nu) pi E))^(1/4)``. Footnote 3 should cite eq. 40 for
-``r_c^{JN}``. The cylinder half-widths of the thin models are not in [ZG]; they follow from
-the thin-layer laws ``u = -(H^3/(3G)) p''`` (incompressible) and ``u = H(1-2nu) p/(2G(1-nu))``
-(compressible).
-
-Jaffar's thick-layer law (eqs. 32-35) ``P = 4 pi E r_c^3/(R D (1-nu^2))``,
-``D = 3 pi + 8 gamma^3 (b1 + 2/5 b2 gamma^2)``, ``gamma = r_c/H``: ``b1, b2`` by quadrature of
-eq. 34 for the layer's ``nu``; ``r_c`` by a safeguarded Newton iteration wrapped in
-``jax.lax.custom_root`` (implicit differentiation; the iteration is never differentiated).
-``P(r_c)`` is monotonic only for ``gamma < gamma_max`` (1.2 at ``nu = 0.5``); loads beyond
-return ``r_c = gamma_max H`` and ``valid = False``.
+Contact radii (the ``r_c``/``a`` column above, Jaffar's law, the moduli they use) live in
+:mod:`jaxroll.contact_size`; ``contact_radius`` is re-exported here. The radius uses the
+**static** modulus by default (``E = 2 G'(0)(1+nu)``, ``= 3 G0`` at ``nu = 0.5``): this
+reproduces the radii [ZG] states (H = 5 mm, P = 120 N: 4.87 mm; H = 10 um, R = 2000 m,
+P = 0.2..2 kN: 3.33..4.88 mm).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.integrate
 import scipy.special
 
 from ._numerics import as_float, where_safe
-from .material import complex_modulus, glassy_modulus, relaxed_modulus
+from .contact_size import GEOMETRIES, check_geometry, contact_radius, jaffar_coefficients  # noqa: F401 (re-exported)
 from .special import j1, j2, j3
 
 __all__ = [
@@ -82,182 +66,13 @@ THICK_MAX_GAMMA = 0.9
 #: (its section 4.5): results there are flagged ``valid = False``.
 THIN_MIN_GAMMA = 10.0
 
-_GEOMETRIES = ("sphere", "cylinder")
+_GEOMETRIES = GEOMETRIES
 
 
 def _check_model(model: str, geometry: str) -> None:
     if model not in PRESSURE_MODELS:
         raise ValueError(f"unknown pressure model {model!r}; choose from {tuple(PRESSURE_MODELS)}")
-    if geometry not in _GEOMETRIES:
-        raise ValueError(f"unknown geometry {geometry!r}; choose from {_GEOMETRIES}")
-
-
-# --------------------------------------------------------------------------------------
-# Jaffar's thick-layer law
-
-def _one_minus_L(w, kappa):
-    """``1 - L(w)`` of [ZG] eq. 35, numerically stable for large ``w`` (NumPy)."""
-    e2 = np.exp(-2.0 * w)
-    num = 2.0 * kappa * e2 * e2 + (4.0 * w * w + 4.0 * w + kappa * kappa + 1.0) * e2
-    den = kappa * (1.0 + e2 * e2) + (4.0 * w * w + kappa * kappa + 1.0) * e2
-    return num / den
-
-
-@functools.lru_cache(maxsize=None)
-def jaffar_coefficients(nu: float = 0.5) -> tuple[float, float]:
-    """Jaffar's coefficients ``(b1, b2)`` of [ZG] eq. 34 for a bonded layer, by quadrature.
-
-    ``b_m = (-1/4)^m int_0^inf (1 - L(w)) w^{2m} dw``, ``L`` of eq. 35, ``kappa = 3 - 4 nu``.
-    ``nu = 0.5``: ``b1 = -0.957769288898079``, ``b2 = 1.749436123749906``.
-
-    Args:
-        nu: Poisson's ratio in ``[0, 0.5]`` (a Python float; static).
-    """
-    nu = float(nu)
-    if not 0.0 <= nu <= 0.5:
-        raise ValueError(f"nu must lie in [0, 0.5]; got {nu}")
-    kappa = 3.0 - 4.0 * nu
-    out = []
-    for m in (1, 2):
-        val, _ = scipy.integrate.quad(lambda w: _one_minus_L(w, kappa) * w ** (2 * m), 0.0, 80.0,
-                                      epsabs=0.0, epsrel=1e-13, limit=200)
-        out.append((-0.25) ** m * val)
-    return float(out[0]), float(out[1])
-
-
-@functools.lru_cache(maxsize=None)
-def _jaffar_gamma_max(nu: float) -> float:
-    """Largest ``gamma`` up to which ``P(r_c)`` of eqs. 32-33 increases: root of
-    ``3 D(gamma) - gamma D'(gamma) = 9 pi + 8 gamma^3 (b1 ... )``, i.e.
-    ``9 pi - (32/5) b2 gamma^5 = 0`` (the ``b1`` terms cancel)."""
-    _, b2 = jaffar_coefficients(nu)
-    return float((9.0 * math.pi / (6.4 * b2)) ** 0.2) if b2 > 0 else math.inf
-
-
-def _jaffar_z(gamma0, nu: float):
-    """Solve ``3 pi z^3 = D(gamma0 z)`` for ``z = r_c / r_Hertz`` (eqs. 32-33), differentiable
-    in ``gamma0`` by the implicit function theorem. Returns ``(z, exists)``."""
-    b1, b2 = jaffar_coefficients(nu)
-    g_max = _jaffar_gamma_max(nu)
-
-    def D(g):
-        return 3.0 * math.pi + 8.0 * g**3 * (b1 + 0.4 * b2 * g**2)
-
-    def h(z, g0):
-        return 3.0 * math.pi * z**3 - D(g0 * z)
-
-    # upper bracket: z at gamma_max (or a generous bound for thin gamma0 -> 0)
-    g0_pos = gamma0 > 0
-    z_hi = jnp.where(g0_pos, g_max / where_safe(g0_pos, gamma0, 1.0), 10.0)
-    z_hi = jnp.minimum(z_hi, 10.0)
-    exists = h(z_hi, gamma0) >= 0.0
-
-    def solve(fun, z0):
-        # safeguarded Newton on [lo, hi] with h(lo) < 0 <= h(hi); fixed iteration count
-        lo = jnp.zeros_like(z0) + 0.5
-        hi = z_hi
-
-        def body(_, state):
-            z, lo, hi = state
-            fz = fun(z)
-            lo = jnp.where(fz < 0, z, lo)
-            hi = jnp.where(fz >= 0, z, hi)
-            dfz = jax.grad(fun)(z)
-            zn = z - fz / jnp.where(dfz > 0, dfz, 1.0)
-            ok = (zn > lo) & (zn < hi) & (dfz > 0)
-            z = jnp.where(ok, zn, 0.5 * (lo + hi))
-            return z, lo, hi
-
-        z, _, _ = jax.lax.fori_loop(0, 60, body, (z0, lo, hi))
-        return z
-
-    def tangent_solve(g, y):
-        return y / g(1.0)
-
-    def f(z):
-        return h(z, gamma0)
-
-    z0 = jnp.clip(jnp.ones_like(gamma0), 0.5, z_hi)
-    z_root = jax.lax.custom_root(f, z0, solve, tangent_solve)
-    return jnp.where(exists, z_root, jax.lax.stop_gradient(z_hi)), exists
-
-
-# --------------------------------------------------------------------------------------
-# contact radius
-
-def _shear_modulus(material, modulus, V, radius_static):
-    if isinstance(modulus, str):
-        if modulus == "static":
-            return relaxed_modulus(material)
-        if modulus == "glassy":
-            return glassy_modulus(material)
-        if modulus == "dynamic":
-            if V is None:
-                raise ValueError('modulus="dynamic" needs the rolling speed V')
-            return jnp.real(complex_modulus(material, V / radius_static))
-        raise ValueError(f'unknown modulus {modulus!r}; use "static", "glassy", "dynamic" or a value in Pa')
-    return as_float(modulus)
-
-
-def _radius_for(model, geometry, G, nu, H, R, P):
-    """Contact radius and its validity for one model, given the shear modulus ``G``."""
-    E = 2.0 * G * (1.0 + nu)
-    inf_H = jnp.isinf(H)
-    Hf = where_safe(inf_H, 1.0, H)
-    if geometry == "sphere":
-        if model == "thick":
-            r_hertz = (3.0 * P * R * (1.0 - nu * nu) / (4.0 * E)) ** (1.0 / 3.0)
-            gamma0 = jnp.where(inf_H, 0.0, r_hertz / Hf)
-            z, exists = _jaffar_z(gamma0, float(nu))
-            return r_hertz * z, exists
-        if model == "thin":
-            return (96.0 * P * R * Hf**3 / (math.pi * E)) ** (1.0 / 6.0), jnp.ones_like(P, dtype=bool)
-        c = 4.0 * (1.0 + nu) * (1.0 - 2.0 * nu) / ((1.0 - nu) * math.pi)
-        return (c * P * R * Hf / E) ** 0.25, jnp.ones_like(P, dtype=bool)
-    # cylinder, P is the load per unit length
-    if model == "thick":
-        return jnp.sqrt(2.0 * P * R * (1.0 - nu) / (math.pi * G)), jnp.ones_like(P, dtype=bool)
-    if model == "thin":
-        return (15.0 * P * R * Hf**3 / (2.0 * G)) ** 0.2, jnp.ones_like(P, dtype=bool)
-    return (3.0 * P * R * Hf * (1.0 - 2.0 * nu) / (4.0 * G * (1.0 - nu))) ** (1.0 / 3.0), jnp.ones_like(
-        P, dtype=bool
-    )
-
-
-def contact_radius(material, layer, radius, load, *, model="thick", geometry="sphere", modulus="static",
-                   speed=None):
-    """Stationary contact radius (sphere) or half-width (cylinder) of a pressure model [m].
-
-    Args:
-        material: a material of :mod:`jaxroll.material` (only its modulus is used).
-        layer: :class:`jaxroll.layer.Layer` (``H`` [m], ``nu``).
-        radius: roller radius ``R`` [m].
-        load: ``P`` [N] (sphere) or ``P'`` [N/m] (cylinder).
-        model: ``"thick"`` ([ZG] eqs. 32-35), ``"thin"`` (eq. 40) or ``"thin-compressible"``
-            (corrected eq. 45); see the module docstring for cylinders.
-        geometry: ``"sphere"`` or ``"cylinder"``.
-        modulus: ``"static"`` (default, ``E = 2 G'(0)(1+nu)``), ``"glassy"``, ``"dynamic"``
-            (``G'(V / r_static)``, needs ``speed``) or a shear modulus in Pa.
-        speed: rolling speed [m/s], only for ``modulus="dynamic"``.
-
-    Returns:
-        ``(r_c, exists)``: radius [m] and a bool array, False where Jaffar's law has no
-        solution (load beyond ``gamma_max``; ``r_c`` is then ``gamma_max H``).
-    """
-    _check_model(model, geometry)
-    nu = float(layer.nu)
-    if model == "thin-compressible" and nu >= 0.5:
-        raise ValueError('pressure model "thin-compressible" needs a compressible layer (nu < 0.5)')
-    R, P, H = as_float(radius), as_float(load), as_float(layer.H)
-    if model != "thick" and not isinstance(H, jax.core.Tracer) and bool(jnp.any(jnp.isinf(H))):
-        raise ValueError(f"pressure model {model!r} needs a finite layer thickness H")
-    if isinstance(modulus, str) and modulus == "dynamic":
-        G_s = relaxed_modulus(material)
-        r_s, _ = _radius_for(model, geometry, G_s, nu, H, R, P)
-        G = _shear_modulus(material, modulus, as_float(speed), r_s)
-    else:
-        G = _shear_modulus(material, modulus, None, None)
-    return _radius_for(model, geometry, G, nu, H, R, P)
+    check_geometry(geometry)
 
 
 # --------------------------------------------------------------------------------------

@@ -13,19 +13,16 @@ case        H          R           loads          methods compared with the full
 ``H10um``   10 um      2000 m      200..2000 N    direct (figure 8)
 ==========  =========  ==========  =============  ==========================================
 
-The reference is the full 3D model (:func:`jaxroll.sphere3d.rolling_resistance_sweep`) at the
+The reference is the full 3D model (``jr.Full`` with a :class:`jaxroll.FixedGrid`) at the
 paper's resolution (period L = 0.2 m, cells a = 0.25 mm, 500 Fourier terms per axis); the
 slice algorithms use the 2D cylinder model with the same period; the direct method is
 evaluated in its aperiodic limit (quadrature, ``rtol = 1e-4``) with the automatic stationary
 pressure (Jaffar thick layer / thin layer).
 
-Every method goes through one small adapter (``_grid_full``, ``_grid_slices``,
-``_grid_direct``) that returns ``R_r`` on the ``loads x speeds`` grid through the library's
-batched entry points (:func:`jaxroll.sphere3d.rolling_resistance_sweep`,
-:func:`jaxroll.slices.rolling_resistance_slices_grid`, :func:`jaxroll.sweep` over
-:func:`jaxroll.rolling_resistance`), so one can be replaced without touching the rest. Each adapter compiles ahead of time
-(``jax.jit(...).lower(...).compile()``) so that compile time is measured apart from run time,
-and reuses the compiled program across cases where the shapes allow.
+Every method is a method object (:func:`full_method`, :func:`compared_method`) evaluated through
+the library's front door :func:`jaxroll.rolling_resistance_grid` by one adapter (``_run``), which
+compiles ahead of time (``jax.jit(...).lower(...).compile()``) so that compile time is measured
+apart from run time, and reuses the compiled program across cases where the shapes allow.
 
 Entry points: :func:`run` (compute, returns a :class:`Reproduction`), :func:`write_outputs`
 (figures, ``report.md``, ``results.csv``, ``timing.csv``), :func:`reproduce` (both; used by
@@ -46,6 +43,8 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from .result import RESULTS
 
 __all__ = ["Case", "CASES", "Settings", "FULL", "QUICK", "PAPER_TIMES", "PAPER_FACTORS", "Reproduction", "run",
            "write_outputs", "reproduce", "METHOD_NAMES"]
@@ -131,7 +130,7 @@ QUICK = Settings(n_speeds=7, n_loads=3, spacing=5e-4, n_terms=250, slice_cells=2
 @dataclasses.dataclass
 class MethodResult:
     values: np.ndarray  # (n_loads, n_speeds) [N]
-    status: np.ndarray  # 0 = converged
+    status: np.ndarray  # RESULTS codes (0 = successful)
     compile_s: float
     run_s: float
 
@@ -197,6 +196,15 @@ class _Progress:
             print(f"[{time.perf_counter() - self.t0:7.1f} s] {msg}", file=self.stream, flush=True)
 
 
+def _invalid(codes) -> str:
+    """``"all valid"`` or the count of points per :data:`jaxroll.RESULTS` reason."""
+    codes = np.asarray(codes)
+    bad = codes[codes != 0]
+    if not bad.size:
+        return "all valid"
+    return "not valid: " + ", ".join(f"{int(np.sum(bad == c))} {RESULTS.names[int(c)]}" for c in np.unique(bad))
+
+
 # ---------------------------------------------------------------------------------------------
 # adapters: one per method, R_r on the (loads x speeds) grid
 # ---------------------------------------------------------------------------------------------
@@ -208,11 +216,19 @@ def _material():
     return jr.StandardLinearSolid(G0, TAU, F)
 
 
-def _run_cached(fn, key, case: Case, loads, speeds, cache: dict) -> MethodResult:
-    """Run ``fn(H, R, loads, speeds) -> (values, status)`` compiled ahead of time, once per
-    ``key`` (grid shape and static options) and cached, so the compile time is measured apart
-    and paid once per process; the cases share the compiled program."""
+def _run(method, case: Case, loads, speeds, cache: dict) -> MethodResult:
+    """``R_r`` of ``method`` (resolved: explicit grids) on the case's loads x speeds through
+    :func:`jaxroll.rolling_resistance_grid`, compiled ahead of time once per method and grid
+    shape (``jax.jit(...).lower(...).compile()``, cached: the cases share the compiled program),
+    so the compile time is measured apart from the run time."""
+    import jaxroll as jr
+
+    def fn(H, R, P, V):
+        out = jr.rolling_resistance_grid(_material(), jr.Layer(H), radius=R, loads=P, speeds=V, method=method)
+        return out.value.T, out.result.T  # (n_loads, n_speeds)
+
     args = (jnp.asarray(case.H), jnp.asarray(case.R), jnp.asarray(loads), jnp.asarray(speeds))
+    key = (method, len(loads), len(speeds))
     c = 0.0
     if key not in cache:
         t = time.perf_counter()
@@ -223,66 +239,25 @@ def _run_cached(fn, key, case: Case, loads, speeds, cache: dict) -> MethodResult
     return MethodResult(np.asarray(v), np.asarray(st), c, time.perf_counter() - t)
 
 
-def _grid_full(case: Case, loads, speeds, s: Settings, window: int, cache: dict) -> MethodResult:
-    """Full 3D reference: :func:`jaxroll.sphere3d.rolling_resistance_sweep` (one kernel per
-    speed shared by all loads, warm-started contact sets)."""
-    import jaxroll as jr
-    from jaxroll import sphere3d
-
-    def fn(H, R, P, V):
-        out = sphere3d.rolling_resistance_sweep(_material(), jr.Layer(H), R, P, V, period=s.period,
-                                                spacing=s.spacing, window=window, n_terms=s.n_terms)
-        return out["value"].T, out["status"].T  # (n_loads, n_speeds)
-
-    return _run_cached(fn, ("full", window, len(loads), len(speeds)), case, loads, speeds, cache)
-
-
-def _grid_slices(algorithm: str, case: Case, loads, speeds, s: Settings, cache: dict) -> MethodResult:
-    """Slice algorithm PD / PP / SP ([ZG] sec. 3): the batched
-    :func:`jaxroll.slices.rolling_resistance_slices_grid` (compliance built once per speed and
-    shared by all loads; each point equals :func:`jaxroll.slices.solve_slices` at the same
-    resolution)."""
-    import jaxroll as jr
-    from jaxroll import slices
-
-    def fn(H, R, P, V):
-        out = slices.rolling_resistance_slices_grid(_material(), jr.Layer(H), R, P, V, algorithm=algorithm,
-                                                    n_slices=s.n_slices, period=s.period, n_cells=s.slice_cells,
-                                                    window_cells=s.slice_window)
-        return out["value"].T, out["status"].T  # (n_loads, n_speeds)
-
-    return _run_cached(fn, (algorithm, len(loads), len(speeds)), case, loads, speeds, cache)
-
-
-def _grid_direct(case: Case, loads, speeds, s: Settings, cache: dict) -> MethodResult:
-    """Direct series method ([ZG] sec. 4), aperiodic limit, automatic stationary pressure,
-    through :func:`jaxroll.sweep` over a :class:`jaxroll.Grid`. The first call includes the
-    compilation; compile time = first call - second call."""
+def full_method(s: Settings, window: int):
+    """The full 3D reference at the settings' resolution (the paper's: period 0.2 m, 0.25 mm
+    cells, 500 terms)."""
     import jaxroll as jr
 
-    mat = _material()
-    layer = jr.Layer(case.H)
-
-    def one(p):
-        return jr.rolling_resistance(mat, layer, radius=case.R, load=p.P, speed=p.V, geometry="sphere",
-                                     method="direct", rtol=s.direct_rtol).value
-
-    grid = jr.Grid(P=jnp.asarray(loads), V=jnp.asarray(speeds))
-    t = time.perf_counter()
-    jax.block_until_ready(jr.sweep(one, grid))
-    first = time.perf_counter() - t
-    t = time.perf_counter()
-    v = np.asarray(jax.block_until_ready(jr.sweep(one, grid)))
-    run_s = time.perf_counter() - t
-    return MethodResult(v, np.zeros(v.shape, int), max(first - run_s, 0.0), run_s)
+    return jr.Full(grid=jr.FixedGrid(s.spacing, window, period=s.period, n_terms=s.n_terms))
 
 
-def _method_grid(method, case, loads, speeds, s, cache):
-    if method in SLICE_METHODS:
-        return _grid_slices(method, case, loads, speeds, s, cache)
-    if method == "direct":
-        return _grid_direct(case, loads, speeds, s, cache)
-    raise ValueError(f"unknown method {method!r}; choose from {ALL_METHODS}")
+def compared_method(name: str, s: Settings):
+    """PD / PP / SP on the settings' slice grid (the paper's period), or the direct method in its
+    aperiodic limit with the automatic stationary pressure."""
+    import jaxroll as jr
+
+    if name in SLICE_METHODS:
+        return jr.Slices(algorithm=name, n_slices=s.n_slices,
+                         grid=jr.FixedGrid(s.period / s.slice_cells, s.slice_window, period=s.period))
+    if name == "direct":
+        return jr.Direct(rtol=s.direct_rtol)
+    raise ValueError(f"unknown method {name!r}; choose from {ALL_METHODS}")
 
 
 def _full_window(s: Settings, cases: Sequence[Case]) -> int:
@@ -290,9 +265,8 @@ def _full_window(s: Settings, cases: Sequence[Case]) -> int:
     every case (1.15 x the estimated radius each side, at least the paper's 41 cells), so the
     reference compiles once."""
     import jaxroll as jr
-    from jaxroll import sphere3d
 
-    r = max(float(sphere3d.estimate_contact_radius(_material(), jr.Layer(c.H), c.R, c.loads[1])) for c in cases)
+    r = max(float(jr.estimate_contact_size(_material(), jr.Layer(c.H), c.R, c.loads[1])) for c in cases)
     return max(41 if s.spacing <= 2.5e-4 else 1, 2 * math.ceil(1.15 * r / s.spacing) + 1)
 
 
@@ -303,16 +277,22 @@ def _pressure_fields(s: Settings, log) -> dict:
 
     mat, layer = _material(), jr.Layer(5e-3)
     V, P = 0.01, 100.0
+    P_line = 3.0 * P / (4.0 * 4e-3)  # middle-slice load per length
     t = time.perf_counter()
-    cyl = jr.solve_cylinder(mat, layer, 0.02, 3.0 * P / (4.0 * 4e-3), V)  # middle-slice load per length
-    sph = jr.sphere3d.solve_sphere(mat, layer, 0.02, P, V, cells_per_radius=8 if s.spacing > 2.5e-4 else 12)
+    cyl = jr.rolling_resistance(mat, layer, radius=0.02, load=P_line, speed=V, geometry="cylinder", method="full")
+    cyl0 = jr.rolling_resistance(mat, layer, radius=0.02, load=P_line, speed=0.0, geometry="cylinder",
+                                 method=jr.Full().resolve(mat, layer, radius=0.02, loads=P_line, speeds=V,
+                                                          geometry="cylinder"))
+    sph = jr.rolling_resistance(mat, layer, radius=0.02, load=P, speed=V, method=jr.Full(
+        grid=jr.AutoGrid(cells_per_radius=8 if s.spacing > 2.5e-4 else 12)))
     log(f"pressure fields (H = 5 mm, P = {P:g} N, V = {V:g} m/s): {time.perf_counter() - t:.1f} s")
+    x, y = sph.grid
     return dict(
-        V=V, P=P, cylinder_load=3.0 * P / (4.0 * 4e-3),
-        cylinder_x=np.asarray(cyl.x), cylinder_p=np.asarray(cyl.contact.pressure),
-        cylinder_R=float(cyl.resistance),
-        x=np.asarray(sph.x), y=np.asarray(sph.y), p=np.asarray(sph.contact.pressure),
-        contact=np.asarray(sph.contact.contact), R_r=float(sph.resistance),
+        V=V, P=P, cylinder_load=P_line,
+        cylinder_x=np.asarray(cyl.grid), cylinder_p=np.asarray(cyl.pressure), cylinder_p0=np.asarray(cyl0.pressure),
+        cylinder_R=float(cyl.value),
+        x=np.asarray(x), y=np.asarray(y), p=np.asarray(sph.pressure),
+        contact=np.asarray(sph.pressure) > 0, R_r=float(sph.value),
     )
 
 
@@ -346,20 +326,20 @@ def run(settings: Settings = FULL, *, progress=sys.stderr) -> Reproduction:
     for case in cases:
         loads = np.linspace(case.loads[0], case.loads[1], s.n_loads)
         log(f"{case.label}: full 3D reference ({s.n_loads} x {s.n_speeds}) ...")
-        ref = _grid_full(case, loads, speeds, s, window, cache)
+        ref = _run(full_method(s, window), case, loads, speeds, cache)
         log(f"{case.label}: full 3D done: run {_fmt_time(ref.run_s)}, compile {_fmt_time(ref.compile_s)}; "
-            f"{int(np.sum(ref.status != 0))} non-converged")
+            f"{_invalid(ref.status)}")
         res = {}
         for m in case.methods:
             if m not in s.methods:
                 continue
             log(f"{case.label}: {METHOD_NAMES[m]} ...")
-            r = _method_grid(m, case, loads, speeds, s, cache)
+            r = _run(compared_method(m, s), case, loads, speeds, cache)
             res[m] = r
             err = r.values / ref.values - 1.0
             log(f"{case.label}: {METHOD_NAMES[m]} done: run {_fmt_time(r.run_s)}, compile {_fmt_time(r.compile_s)}; "
                 f"mean error {100 * np.mean(err):+.1f} %, mean |error| {100 * np.mean(np.abs(err)):.1f} %; "
-                f"{int(np.sum(r.status != 0))} non-converged")
+                f"{_invalid(r.status)}")
         out.append(CaseResult(case, loads, speeds, ref, res))
     pressure = _pressure_fields(s, log) if s.pressure_fields else None
     wall = time.perf_counter() - t0
@@ -447,7 +427,8 @@ def write_outputs(rep: Reproduction, out) -> list:
     extra.append("master_curves.png")
     if rep.pressure is not None:
         pr = rep.pressure
-        plot.close(plot.plot_pressure_profile(pr["cylinder_x"], {f"V = {pr['V']:g} m/s": pr["cylinder_p"]},
+        plot.close(plot.plot_pressure_profile(pr["cylinder_x"], {"V = 0 (static)": pr["cylinder_p0"],
+                                                                 f"V = {pr['V']:g} m/s": pr["cylinder_p"]},
                                               title=f"2D cylinder, H = 5 mm, P' = {pr['cylinder_load']:.0f} N/m",
                                               path=out / "pressure_cylinder.png"))
         plot.close(plot.plot_pressure_map(pr["x"], pr["y"], pr["p"], contact=pr["contact"],
@@ -460,8 +441,8 @@ def write_outputs(rep: Reproduction, out) -> list:
     with open(out / "results.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["case", "H", "R", "method", "load", "speed", "rolling_resistance", "reference_full3d",
-                    "relative_error", "status"])
-        w.writerow(["", "m", "m", "", "N", "m/s", "N", "N", "-", ""])
+                    "relative_error", "valid", "result"])
+        w.writerow(["", "m", "m", "", "N", "m/s", "N", "N", "-", "-", "-"])
         for cr in rep.cases:
             items = [("full", cr.reference)] + list(cr.methods.items())
             for m, r in items:
@@ -470,7 +451,7 @@ def write_outputs(rep: Reproduction, out) -> list:
                         ref = cr.reference.values[i, j]
                         w.writerow([cr.case.key, f"{cr.case.H:g}", f"{cr.case.R:g}", m, f"{P:.8g}", f"{V:.8g}",
                                     f"{r.values[i, j]:.8g}", f"{ref:.8g}", f"{r.values[i, j] / ref - 1:.6g}",
-                                    int(r.status[i, j])])
+                                    int(r.status[i, j] == 0), RESULTS.names[int(r.status[i, j])]])
     with open(out / "timing.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["method", "run_per_reference_case", "single_run", "compile", "speed_factor", "points_measured",
@@ -517,13 +498,9 @@ def write_outputs(rep: Reproduction, out) -> list:
         lines += [f"### {cr.case.label} ({cr.case.figure})", ""]
         lines += [f"![{n[:-4]}]({n})" for n in figs[cr.case.key]]
         lines.append("")
-        n_bad = int(np.sum(cr.reference.status != 0))
-        if n_bad:
-            lines += [f"Full 3D: {n_bad} grid point(s) did not converge (status != 0).", ""]
-        for m, r in cr.methods.items():
-            nb = int(np.sum(r.status != 0))
-            if nb:
-                lines += [f"{METHOD_NAMES[m]}: {nb} grid point(s) did not converge (status != 0).", ""]
+        for name, r in [("Full 3D", cr.reference)] + [(METHOD_NAMES[m], r) for m, r in cr.methods.items()]:
+            if np.any(r.status != 0):
+                lines += [f"{name}: {_invalid(r.status)} (column `result` of results.csv).", ""]
         if cr.methods:
             e_v = {m: 100 * np.mean(cr.relative_error(m), axis=0) for m in cr.methods}
             lines += ["Mean relative error [%] against V (averaged over loads):", "",

@@ -1,15 +1,95 @@
-"""The result object returned by :func:`jaxroll.rolling_resistance` for every method."""
+"""Result codes and the result object returned by every method.
+
+:data:`RESULTS` is the one enumeration of outcomes of the library: every solver (contact
+active set, linear solves, root finds) and every validity check (window, period, pressure-model
+range, error indicators) reports one of its integer codes, and :class:`RollingResult` carries it
+as ``result``. ``valid`` is ``result == RESULTS.successful``: a promise that the value is
+trustworthy, never a guess.
+"""
 
 from __future__ import annotations
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
-__all__ = ["RollingResult", "REGIMES", "full_model_result"]
+__all__ = ["RESULTS", "RollingResult", "REGIMES", "ValidityWarning", "first_failure", "full_model_result", "merge_results"]
 
-#: Integer codes of ``RollingResult.regime`` (an array, so it survives jit/vmap).
+#: Integer codes of ``RollingResult.regime``: which pressure model or method produced the value
+#: (an array, so it survives jit/vmap).
 REGIMES = {0: "thick", 1: "thin", 2: "thin-compressible", 3: "elastic", 4: "full"}
+
+
+class ValidityWarning(UserWarning):
+    """A result is not successful (see :data:`RESULTS`); issued by eager calls with ``throw=False``."""
+
+
+class _Results:
+    """An enumeration of integer result codes with messages.
+
+    ``RESULTS.successful`` (0), ``RESULTS.max_steps_reached``, ... are Python ints; result arrays
+    hold these codes. ``RESULTS.message(code)`` is the explanation of a code, ``RESULTS.names``
+    maps codes to names. Where several reasons apply to one value, the solver failures come
+    first (they make every later check meaningless), then the checks in the order listed.
+    """
+
+    def __init__(self, items):
+        object.__setattr__(self, "_names", tuple(name for name, _ in items))
+        object.__setattr__(self, "_messages", tuple(msg for _, msg in items))
+        for code, name in enumerate(self._names):
+            object.__setattr__(self, name, code)
+
+    def __setattr__(self, name, value):
+        raise AttributeError("RESULTS is read-only")
+
+    @property
+    def names(self) -> dict:
+        """``{code: name}``."""
+        return dict(enumerate(self._names))
+
+    def message(self, code) -> str:
+        """The message of one integer code."""
+        code = int(code)
+        if not 0 <= code < len(self._messages):
+            raise ValueError(f"unknown result code {code}")
+        return self._messages[code]
+
+    def messages(self) -> tuple:
+        """All messages, indexed by code."""
+        return self._messages
+
+    def __len__(self):
+        return len(self._names)
+
+    def __iter__(self):
+        return iter(range(len(self._names)))
+
+    def __repr__(self):
+        return "RESULTS(" + ", ".join(f"{n}={i}" for i, n in enumerate(self._names)) + ")"
+
+
+RESULTS = _Results([
+    ("successful", "successful"),
+    ("max_steps_reached", "the contact active-set iteration did not converge within max_steps (raise max_steps)"),
+    ("linear_solve_failed", "the linear solve on the contact set did not reach the tolerance (raise tol or the "
+                            "resolution)"),
+    ("window_too_small", "the contact reaches the edge of the computational window: the contact is wider than the "
+                         "grid's window (raise FixedGrid.window, or resolve the method over the whole envelope)"),
+    ("nonfinite", "non-finite solution (check the inputs: positive load, finite compliance)"),
+    ("root_find_failed", "a root find of the slice algorithm (eq. 7 or 11) did not converge"),
+    ("period_too_short", "the period is shorter than 20 max(contact radius, V x longest retardation time): the "
+                         "layer does not recover between passes, so the value is that of a train of rollers "
+                         "(lengthen the period, or use an infinite layer)"),
+    ("outside_pressure_model", "the contact lies outside the range of validity of the stationary pressure model "
+                               "(gamma = r_c/H: Jaffar's thick model needs gamma <= 0.9, the thin model gamma >= "
+                               "10); use pressure='elastic' or the full model"),
+    ("truncation_too_large", "the method's own error estimate (quadrature or series truncation, or the gap between "
+                             "the moment and dissipation forms of R_r) exceeds its threshold (refine the method)"),
+    ("contact_too_large", "the contact radius exceeds 0.3 R: not a small-strain contact (the models assume a "
+                          "parabolic roller profile)"),
+    ("nonpositive", "non-positive rolling resistance: below the method's resolution (refine the grid)"),
+])
 
 
 class RollingResult(eqx.Module):
@@ -22,12 +102,12 @@ class RollingResult(eqx.Module):
             or of the solved contact [m].
         gamma: ``contact_radius / H`` [-] (0 for a half-space).
         regime: integer code of the pressure model / method, see :data:`REGIMES`.
-        valid: True where the inputs lie inside the method's range of validity.
         truncation: estimated relative truncation / discretisation error of ``value`` [-].
+        result: integer :data:`RESULTS` code, ``RESULTS.successful`` (0) when the value is
+            trustworthy; otherwise the first reason it is not.
         penetration: rigid-body penetration [m] (full models; else None).
         pressure: contact pressure on the grid [Pa] (full models; else None).
         grid: coordinates of the pressure grid [m] (full models; else None).
-        status: solver status code, 0 = converged (full models; else None).
         iterations: solver iterations (full models; else None).
         residual: final solver residual (full models; else None).
     """
@@ -36,25 +116,50 @@ class RollingResult(eqx.Module):
     contact_radius: jax.Array
     gamma: jax.Array
     regime: jax.Array
-    valid: jax.Array
     truncation: jax.Array
+    result: jax.Array
     penetration: jax.Array | None = None
     pressure: jax.Array | None = None
     grid: jax.Array | tuple | None = None
-    status: jax.Array | None = None
     iterations: jax.Array | None = None
     residual: jax.Array | None = None
 
+    @property
+    def valid(self) -> jax.Array:
+        """True where ``result == RESULTS.successful``."""
+        return self.result == RESULTS.successful
 
-def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, ok, penetration, pressure, grid,
-                      status, iterations, residual) -> RollingResult:
+    def reasons(self) -> np.ndarray:
+        """The :data:`RESULTS` message of every entry (host NumPy array of strings; eager only)."""
+        codes = np.asarray(self.result)
+        return np.vectorize(RESULTS.message, otypes=[object])(codes) if codes.ndim else np.asarray(
+            RESULTS.message(codes), dtype=object)
+
+
+def first_failure(*checks) -> jax.Array:
+    """The :data:`RESULTS` code of the first failed check: ``checks`` are ``(failed, code)``
+    pairs in priority order (``failed`` a bool array, ``code`` a RESULTS int)."""
+    out = jnp.asarray(RESULTS.successful)
+    for failed, code in reversed(checks):
+        out = jnp.where(failed, code, out)
+    return out
+
+
+def merge_results(first, second) -> jax.Array:
+    """``first`` where it is a failure, else ``second`` (both RESULTS code arrays)."""
+    return jnp.where(first != RESULTS.successful, first, second)
+
+
+def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, result, penetration, pressure, grid,
+                      iterations, residual) -> RollingResult:
     """The :class:`RollingResult` of a full contact model (2D cylinder, 3D sphere, slices):
     ``value`` is the pressure-moment form of R_r, ``truncation`` its relative difference to the
-    dissipation form (a discretisation-error indicator), ``regime = 4``, ``valid = ok``."""
+    dissipation form (a discretisation-error indicator), ``regime = 4``."""
+    H = jnp.asarray(H, float)
     finite = jnp.isfinite(H)
     gamma = jnp.where(finite, contact_radius / jnp.where(finite, H, 1.0), 0.0)
     scale = jnp.maximum(jnp.abs(resistance), 1e-300)
     trunc = jax.lax.stop_gradient(jnp.abs(resistance - resistance_dissipation) / scale)
-    return RollingResult(value=resistance, contact_radius=contact_radius, gamma=gamma, regime=jnp.asarray(4),
-                         valid=ok, truncation=trunc, penetration=penetration, pressure=pressure, grid=grid,
-                         status=status, iterations=iterations, residual=residual)
+    return RollingResult(value=resistance, contact_radius=contact_radius, gamma=gamma,
+                         regime=jnp.asarray(4), truncation=trunc, result=result, penetration=penetration,
+                         pressure=pressure, grid=grid, iterations=iterations, residual=residual)

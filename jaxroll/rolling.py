@@ -1,123 +1,154 @@
-"""Public entry point :func:`rolling_resistance`: one call for every method and geometry."""
+"""The front doors: :func:`rolling_resistance` (one point) and :func:`rolling_resistance_grid`
+(a speeds x loads table), for every method and geometry.
+
+Both are compiled once per static setup: the method object (static, hashable configuration),
+the geometry, ``throw`` and the input shapes are the cache key; the physical values (material
+and layer parameters, radius, loads, speeds, and the grid's cell size and period) are traced
+values of the compiled program. So a second call with new values compiles nothing, and under
+``jax.jit``, ``jax.vmap`` and ``jax.grad`` the numbers are those of an eager call with the same
+(resolved) method.
+"""
 
 from __future__ import annotations
 
-import inspect
 import warnings
 
+import equinox as eqx
 import jax
 import numpy as np
 
-from .result import REGIMES, RollingResult
+from ._numerics import as_float, roller_inputs
+from .layer import Layer
+from .material import AbstractMaterial
+from .methods import AbstractMethod, Direct, as_method
+from .result import RESULTS, RollingResult, ValidityWarning
 
-__all__ = ["rolling_resistance", "ValidityWarning"]
+__all__ = ["rolling_resistance", "rolling_resistance_grid", "DEFAULT_METHOD", "ValidityWarning"]
+
+#: The method used when none is given.
+DEFAULT_METHOD: AbstractMethod = Direct()
+
+_AUTOGRID_TRACED = (
+    "{method} sizes its grid (jr.AutoGrid) from concrete input values, but the inputs are traced "
+    "(jax.jit / jax.vmap / jax.grad). Resolve the grid once from concrete values first, "
+    "method = method.resolve(material, layer, radius=..., loads=[...], speeds=[...], geometry=...), "
+    "and pass that method, or give a jr.FixedGrid."
+)
 
 
-class ValidityWarning(UserWarning):
-    """A result lies outside the range of validity of its pressure model / method."""
+def _traced(*trees) -> bool:
+    return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(trees))
 
 
-def _is_concrete(x) -> bool:
-    return not isinstance(x, jax.core.Tracer)
+def _check_models(material, layer):
+    if not isinstance(material, AbstractMaterial):
+        raise ValueError(f"material must be a jaxroll material (jr.StandardLinearSolid, jr.GeneralizedMaxwell, "
+                         f"jr.AtTemperature, ...); got {type(material).__name__}")
+    if not isinstance(layer, Layer):
+        raise ValueError(f"layer must be a jr.Layer; got {type(layer).__name__}")
 
 
-def _check_options(options, fn, what):
-    """ValueError naming the ``options`` that ``fn`` (the function that consumes them) does not
-    take, instead of a TypeError from deep inside; functions taking ``**kwargs`` check their own."""
-    params = inspect.signature(fn).parameters
-    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+def _prepare(method, material, layer, radius, loads, speeds, geometry):
+    method = as_method(DEFAULT_METHOD if method is None else method)
+    _check_models(material, layer)
+    method.check_geometry(geometry)
+    if method.needs_resolution(geometry):
+        if _traced(material, layer, radius, loads, speeds):
+            raise ValueError(_AUTOGRID_TRACED.format(method=type(method).__name__))
+        method = method.resolve(material, layer, radius=radius, loads=loads, speeds=speeds, geometry=geometry)
+    return method
+
+
+def _raise_on_failure(res: RollingResult) -> RollingResult:
+    value = eqx.branched_error_if(res.value, res.result != RESULTS.successful, res.result,
+                                  [f"rolling resistance not trustworthy: {m}" for m in RESULTS.messages()])
+    return eqx.tree_at(lambda r: r.value, res, value)
+
+
+def _warn_if_invalid(res: RollingResult, where: str) -> None:
+    codes = res.result
+    if isinstance(codes, jax.core.Tracer):
         return
-    bad = sorted(set(options) - set(params))
-    if bad:
-        known = sorted(k for k, p in params.items() if p.kind is p.KEYWORD_ONLY)
-        raise ValueError(f"{what} does not take the option(s) {bad}; its options are {known}")
+    codes = np.asarray(codes)
+    bad = codes[codes != RESULTS.successful]
+    if bad.size:
+        reasons = "; ".join(f"{int(np.sum(bad == c))} x {RESULTS.message(c)}" for c in np.unique(bad))
+        warnings.warn(f"{where}: {bad.size} of {codes.size} result(s) not valid: {reasons}", ValidityWarning,
+                      stacklevel=3)
 
 
-def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere", method="direct",
-                       pressure="auto", period=None, n_terms=None, rtol=1e-4, **options) -> RollingResult:
-    """Rolling resistance of a rigid sphere or cylinder on a viscoelastic layer.
+@eqx.filter_jit
+def _point(method, material, layer, radius, load, speed, geometry, throw):
+    R, P, V = roller_inputs(radius, load, speed)
+    res = method.evaluate(material, layer, R, P, V, geometry)
+    return _raise_on_failure(res) if throw else res
+
+
+@eqx.filter_jit
+def _grid(method, material, layer, radius, loads, speeds, geometry, throw):
+    R = roller_inputs(radius, 1.0, 0.0)[0]
+    loads = jax.vmap(lambda P: roller_inputs(1.0, P, 0.0)[1])(loads)
+    speeds = jax.vmap(lambda V: roller_inputs(1.0, 1.0, V)[2])(speeds)
+    res = method.evaluate_grid(material, layer, R, loads, speeds, geometry)
+    return _raise_on_failure(res) if throw else res
+
+
+def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere", method=None,
+                       throw=True) -> RollingResult:
+    """Rolling resistance of a rigid sphere or cylinder on a viscoelastic layer, at one point.
 
     Args:
-        material: a material of :mod:`jaxroll.material` (e.g. ``StandardLinearSolid(G0, tau, f)``).
+        material: a material (``jr.StandardLinearSolid(G0, tau, f)``, ``jr.GeneralizedMaxwell``,
+            ``jr.at_temperature(...)``, any :class:`jaxroll.material.AbstractMaterial`).
         layer: :class:`jaxroll.layer.Layer` (``H`` [m], ``jnp.inf`` for a half-space).
         radius: roller radius ``R`` [m].
         load: ``P`` [N] (sphere) or ``P'`` [N/m] (cylinder, per unit length).
-        speed: rolling speed ``V`` [m/s], ``>= 0``.
+        speed: rolling speed ``V`` [m/s], ``>= 0`` (the roller travels toward +x).
         geometry: ``"sphere"`` or ``"cylinder"``.
-        method: ``"direct"`` (the Fourier-series method of [ZG] sec. 4, stationary pressure) or
-            ``"full"`` (the full rolling-contact solution: :mod:`jaxroll.cylinder`,
-            :mod:`jaxroll.sphere3d`), or ``"PD"``, ``"PP"``, ``"SP"`` (sphere from cylinder
-            slices, [ZG] sec. 3, :mod:`jaxroll.slices`). ``pressure``/``rtol`` apply to
-            ``"direct"`` only; ``period`` is passed on to the full/slice models.
-        pressure: stationary pressure model of the direct method: ``"auto"`` (default; chosen
-            from ``gamma = r_c/H``), ``"thick"``, ``"thin"``, ``"thin-compressible"``, or
-            ``"elastic"`` (spheres: the static elastic contact pressure solved on a grid by the 3D
-            contact solver, valid for any thickness, [ZG] footnote 4's open case).
-        period: ``None`` (default): the aperiodic limit (single roller on an infinite layer).
-            A period [m] (scalar, or ``(Lx, Ly)`` for spheres) selects [ZG]'s periodic series.
-        n_terms: number of Fourier terms per direction of the periodic series.
-        rtol: target relative accuracy of the aperiodic quadrature.
-        **options: passed to the method (direct: ``modulus``, ``quadrature``; full: see
-            :func:`jaxroll.cylinder.rolling_resistance_full`).
+        method: a method object (:class:`jaxroll.Direct`, :class:`jaxroll.Full`,
+            :class:`jaxroll.Slices`) or a shortcut ``"direct"``, ``"full"``, ``"PD"``, ``"PP"``,
+            ``"SP"``; default :data:`DEFAULT_METHOD`. Under ``jit``/``vmap``/``grad`` a method
+            with a grid must be resolved first (``method.resolve(...)``).
+        throw: raise if the result is not trustworthy (``result != RESULTS.successful``: a
+            solver failure or a validity check; the message names the reason). With
+            ``throw=False`` the reason is returned in ``result`` (use it under ``vmap``), and an
+            eager call warns (:class:`jaxroll.ValidityWarning`).
 
     Returns:
         :class:`jaxroll.result.RollingResult`: ``value`` [N for a sphere, N/m for a cylinder]
-        and diagnostics. ``valid`` is False outside the method's range of validity: under
-        ``jit``/``vmap`` this is only a flag; called eagerly, a :class:`ValidityWarning` is
-        also issued.
+        and diagnostics; ``valid`` is ``result == RESULTS.successful``.
 
     Works under ``jax.jit``, ``jax.vmap`` (scalar ``radius``, ``load``, ``speed`` per call) and
     ``jax.grad`` with respect to the material and layer parameters, ``R``, ``P`` and ``V``.
     """
-    if method == "direct" and pressure == "elastic":
-        if geometry != "sphere" or period is not None or n_terms is not None:
-            raise ValueError("pressure='elastic' (static elastic contact pressure from the 3D contact solver) is "
-                             "implemented for geometry='sphere'; its resolution goes through **options")
-        from .sphere3d import direct_elastic_rolling_resistance
+    method = _prepare(method, material, layer, radius, load, speed, geometry)
+    radius, load, speed = as_float(radius), as_float(load), as_float(speed)
+    res = _point(method.dynamic(), material, layer, radius, load, speed, geometry, bool(throw))
+    if not throw:
+        _warn_if_invalid(res, "rolling_resistance")
+    return res
 
-        res = direct_elastic_rolling_resistance(material, layer, radius, load, speed, **options)
-    elif method == "direct":
-        from .direct import direct_rolling_resistance
 
-        _check_options(options, direct_rolling_resistance, "method='direct'")
-        res = direct_rolling_resistance(material, layer, radius=radius, load=load, speed=speed,
-                                        geometry=geometry, pressure=pressure, period=period, n_terms=n_terms,
-                                        rtol=rtol, **options)
-    elif method in ("full", "PD", "PP", "SP"):
-        if n_terms is not None:
-            if not (method == "full" and geometry == "sphere"):
-                raise ValueError(f"method={method!r} takes its resolution through **options, not n_terms")
-            options = dict(options, n_terms=n_terms)
-        if period is not None:
-            options = dict(options, period=period)
-        if method == "full" and geometry == "cylinder":
-            from .cylinder import rolling_resistance_full, solve_cylinder
+def rolling_resistance_grid(material, layer, *, radius, loads, speeds, geometry="sphere", method=None,
+                            throw=False) -> RollingResult:
+    """Rolling resistance on the table ``speeds x loads`` (the paper's "reference case").
 
-            _check_options(options, solve_cylinder, "method='full' on a cylinder")
-            res = rolling_resistance_full(material, layer, radius, load, speed, **options)
-        elif method == "full" and geometry == "sphere":
-            from .sphere3d import rolling_resistance_full as sphere_full
-            from .sphere3d import solve_sphere
+    Same arguments as :func:`rolling_resistance`, with ``loads`` [N or N/m] and ``speeds``
+    [m/s] 1D arrays. Per-speed work (compliance kernels, the slices' factorisations) is shared
+    by all loads of the speed; the full models start each load from the previous load's contact
+    set (give loads sorted). An :class:`~jaxroll.grids.AutoGrid` is sized once for the whole
+    table. ``throw=False`` by default: a table keeps going past a bad point, whose reason is in
+    ``result`` (an eager call warns with the count per reason).
 
-            _check_options(options, solve_sphere, "method='full' on a sphere")
-            res = sphere_full(material, layer, radius, load, speed, **options)
-        elif geometry == "sphere":
-            from .slices import rolling_resistance_slices
-
-            res = rolling_resistance_slices(material, layer, radius, load, speed, algorithm=method, **options)
-        else:
-            raise NotImplementedError(f"method={method!r} builds a sphere from cylinder slices: use "
-                                      "geometry='sphere' (for cylinders use 'direct' or 'full')")
-    else:
-        raise ValueError(f"unknown method {method!r}; choose 'direct', 'full', 'PD', 'PP' or 'SP'")
-
-    valid = res.valid
-    if _is_concrete(valid) and not bool(np.all(np.asarray(valid))):
-        regimes = sorted({REGIMES.get(int(c), str(c)) for c in np.atleast_1d(np.asarray(res.regime))})
-        warnings.warn(
-            f"rolling_resistance: result outside the range of validity of the {'/'.join(regimes)} model "
-            f"(gamma = r_c/H = {np.asarray(res.gamma) if _is_concrete(res.gamma) else 'traced'}); see RollingResult.valid",
-            ValidityWarning,
-            stacklevel=2,
-        )
+    Returns:
+        :class:`jaxroll.result.RollingResult` whose fields are ``(n_speeds, n_loads)`` arrays
+        (pressure fields ``(n_speeds, n_loads, ...)``).
+    """
+    loads, speeds = as_float(loads), as_float(speeds)
+    if loads.ndim != 1 or speeds.ndim != 1 or loads.size == 0 or speeds.size == 0:
+        raise ValueError(f"loads and speeds must be non-empty 1D arrays; got shapes {loads.shape} and {speeds.shape}")
+    method = _prepare(method, material, layer, radius, loads, speeds, geometry)
+    res = _grid(method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry, bool(throw))
+    if not throw:
+        _warn_if_invalid(res, "rolling_resistance_grid")
     return res

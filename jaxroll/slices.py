@@ -28,10 +28,10 @@ below). Initial guess: the Hertz radius ``r_c^H = (3 P R/(16 G'(2 pi V/L)))^(1/3
   ``dy = 2 r_c(d_o)/n``, started from the core's ``d_o``: both geometry and load hold.
 
 Numerics. All slices share one grid and one compliance kernel (the kernel depends on the
-material, layer, speed and period only, not on the slice radius or load), chosen for the middle
-slice like :func:`jaxroll.cylinder.solve_cylinder` chooses it; the outer slices, which carry
-narrower contacts, are therefore resolved more coarsely (their share of ``R_r`` is small; the
-slice-count and resolution convergence is tested). The slices are solved together with
+material, layer, speed and period only, not on the slice radius or load), sized for the middle
+slice's load per unit length by the line rule of :mod:`jaxroll.grids`; the outer slices, which
+carry narrower contacts, are therefore resolved more coarsely (their share of ``R_r`` is small;
+the slice-count and resolution convergence is tested). The slices are solved together with
 ``jax.vmap``.
 
 Contact solves (default ``linear_solver="interval"``). The window operator is Toeplitz,
@@ -40,17 +40,16 @@ contact block is the same leading block ``T_n`` wherever the interval lies, and 
 profile on it is a combination of ``1, j, j^2``: one Levinson recursion per speed tabulates
 ``T_n^{-1} [1, j, j^2]`` for every ``n`` (:func:`toeplitz_nested_solve`,
 :class:`IntervalOperator`), after which every penetration- or load-controlled slice solve of
-every load at that speed is a primal-dual active-set iteration on the interval whose steps cost
-one table row and the gaps next to the interval, no factorisation (:func:`solve_interval`; the
-full complementarity is checked at the end). The
-``"dense"`` (LU, :func:`solve_dense`) and ``"gmres"`` (FFT operator,
-:func:`jaxroll.contact.solve_contact`, whose penetration mode :func:`solve_penetration` wraps)
-solvers solve the same discrete problem in general form (agreement to rounding is tested).
-:func:`rolling_resistance_slices_grid` evaluates a speeds x loads grid (the paper's reference
-case) with the compliance and tables built once per speed.
+every load at that speed is a primal-dual active-set iteration (the library's one loop,
+:func:`jaxroll.contact.active_set_loop`) on the interval whose steps cost one table row and the
+gaps next to the interval, no factorisation (:func:`solve_interval`; the full complementarity is
+checked at the end). The ``"dense"`` (LU) and ``"gmres"`` (FFT operator) linear solvers of
+:func:`jaxroll.contact.solve_contact` solve the same discrete problem in general form (agreement
+to rounding is tested). :func:`rolling_resistance_grid` evaluates a speeds x loads grid (the
+paper's reference case) with the compliance and tables built once per speed.
 
-Derivatives. The scalar root finds (eqs. 7 and 11) are a bracketed, safeguarded Newton
-iteration in ``log d_o`` inside :func:`jax.lax.custom_root`, so derivatives come from the
+Derivatives. The scalar root finds (eqs. 7 and 11) are the library's safeguarded Newton
+iteration (:func:`jaxroll._numerics.newton_root`) in ``log d_o``, so derivatives come from the
 implicit function theorem (never from unrolling). The contact solves are differentiated on the
 converged contact set with the set held fixed: implicitly (``custom_linear_solve``) for GMRES,
 through the direct solve (LU, or the Levinson recursion, a finite direct method whose autodiff
@@ -59,38 +58,44 @@ derivative is exact) otherwise.
 
 from __future__ import annotations
 
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from . import contact as _contact
-from ._numerics import as_float, roller_inputs
-from .cylinder import line_grid
-from .layer import Layer, surface_compliance
-from .material import relaxed_modulus, storage_modulus
-from .result import RollingResult, full_model_result
+from ._numerics import newton_root
+from .contact_size import estimate_contact_size
+from .cylinder import kernel_builder as line_kernel_builder
+from .grids import FixedGrid
+from .layer import Layer
+from .material import storage_modulus
+from .reference import hertz_sphere
+from .result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
 
 __all__ = [
     "ALGORITHMS",
     "IntervalOperator",
     "LINEAR_SOLVERS",
     "SliceSolution",
-    "dense_window_matrix",
     "interval_operator",
-    "rolling_resistance_slices",
-    "rolling_resistance_slices_grid",
-    "slice_result",
-    "solve_dense",
+    "middle_slice_load",
+    "prepare",
+    "rolling_resistance",
+    "rolling_resistance_grid",
+    "solve",
     "solve_interval",
-    "solve_penetration",
-    "solve_slices",
     "toeplitz_nested_solve",
 ]
 
 #: The three algorithms of [ZG] sec. 3.
 ALGORITHMS = ("PD", "PP", "SP")
+#: Linear solvers of the slice contact solves: Levinson tables on the contact interval (fastest),
+#: LU or GMRES in :func:`jaxroll.contact.solve_contact`.
+LINEAR_SOLVERS = ("interval", "dense", "gmres")
+#: Alias images per side of the slices' 1D periodic kernel (plus the analytic tail).
+IMAGES = 4
+
 
 class SliceSolution(eqx.Module):
     """Solution of a slice algorithm (slices with ``y_k >= 0`` only; the rest by symmetry).
@@ -108,11 +113,10 @@ class SliceSolution(eqx.Module):
         slice_penetration: penetration of each slice [m].
         slice_resistance: rolling resistance per unit length of each slice [N/m].
         pressure: slice pressures [Pa], shape ``(m, W)``; ``x`` their cell centres [m].
-        status: 0 converged; otherwise the largest contact status of the slices
-            (:data:`jaxroll.contact.CONTACT_STATUS`), or 5 if a root find did not converge.
+        result: :data:`jaxroll.result.RESULTS` code: the worst contact result of the slices,
+            else ``root_find_failed`` if a root find did not converge.
         iterations: Newton iterations of the root finds (core + SP).
-        residual: final relative residual of the last root find.
-        period_ok: whether the period is at least ``period_factor * max(a_est, V tau)``.
+        residual: final residual of the last root find.
     """
 
     resistance: jax.Array
@@ -128,145 +132,9 @@ class SliceSolution(eqx.Module):
     slice_resistance: jax.Array
     pressure: jax.Array
     x: jax.Array
-    status: jax.Array
+    result: jax.Array
     iterations: jax.Array
     residual: jax.Array
-    period_ok: jax.Array
-
-
-# ---------------------------------------------------------------------------------------------
-# Penetration-controlled 2D contact on a WindowedCompliance
-# ---------------------------------------------------------------------------------------------
-
-
-def solve_penetration(compliance, profile, penetration, *, tol=1e-10, max_steps=50,
-                      linear_restart=80, linear_maxiter=20):
-    """Frictionless rolling contact at a prescribed rigid-body penetration (any dimension).
-
-    Find ``p >= 0`` [Pa] with ``g = h - d + C p >= 0`` and ``p g = 0`` for a fixed ``d`` [m]
-    (the load follows as ``sum(p) dA``): :func:`jaxroll.contact.solve_contact` in its
-    penetration mode, started from the geometric overlap ``{h < d}``, never raising (failures
-    are reported in ``status``). The pressure is differentiable (implicit function theorem on
-    the converged contact set) w.r.t. the compliance, ``h`` and ``d``. ``d <= 0`` gives
-    ``p = 0``.
-
-    Returns:
-        :class:`jaxroll.contact.ContactSolution` (``pressure``, ``contact``, ``status`` with the
-        codes of :data:`jaxroll.contact.CONTACT_STATUS`, 0 = converged, ``iterations``, ...).
-    """
-    return _contact.solve_contact(compliance, profile, penetration=penetration, tol=tol,
-                                  max_steps=max_steps, linear_restart=linear_restart,
-                                  linear_maxiter=linear_maxiter, throw=False)
-
-
-def dense_window_matrix(compliance):
-    """Dense ``(W, W)`` matrix of a 1D :class:`~jaxroll.contact.WindowedCompliance` [m/Pa]:
-    ``C[i, j] = c[(i - j) mod N]`` (the Toeplitz operator the FFT applies)."""
-    if compliance.ndim != 1:
-        raise ValueError("dense_window_matrix is for 1D windows")
-    (W,) = compliance.shape
-    N = compliance.column.shape[0]
-    i = jnp.arange(W)
-    return compliance.column[jnp.mod(i[:, None] - i[None, :], N)]
-
-
-def solve_dense(matrix, profile, value, cell_size, *, mode="penetration", initial_contact=None,
-                max_steps=50):
-    """Frictionless rolling contact on a small 1D window with a dense compliance matrix.
-
-    Same primal-dual active-set method as :func:`solve_penetration` /
-    :func:`jaxroll.contact.solve_contact`, with the equality system of each contact set
-    solved by LU (``jnp.linalg.solve``) instead of GMRES: exact to rounding and much faster for
-    windows of a few hundred cells (the slices). The active-set iterations run on
-    ``stop_gradient`` inputs; the returned solution is one more solve on the converged set,
-    differentiated by JAX's linear-solve rule (implicit function theorem).
-
-    Args:
-        matrix: dense window compliance ``(W, W)`` [m/Pa] (:func:`dense_window_matrix`).
-        profile: ``h`` [m], shape ``(W,)``.
-        value: penetration ``d`` [m] (``mode="penetration"``) or load per unit length ``P'``
-            [N/m] (``mode="load"``).
-        cell_size: ``dx`` [m].
-        mode: static, ``"penetration"`` or ``"load"``.
-        initial_contact: boolean ``(W,)``; default the geometric overlap ``h < d``
-            (penetration) or the lowest 10 % of ``h`` (load).
-        max_steps: static active-set iteration limit.
-
-    Returns:
-        ``(pressure [Pa], penetration [m], status, iterations)``; ``status`` follows
-        :data:`jaxroll.contact.CONTACT_STATUS` (0 converged, 1 not converged, 3 contact at the
-        window edge, 4 non-finite).
-    """
-    if mode not in ("penetration", "load"):
-        raise ValueError(f"mode must be 'penetration' or 'load'; got {mode!r}")
-    sg = jax.lax.stop_gradient
-    Cm = jnp.asarray(matrix)
-    h = jnp.asarray(profile, dtype=float)
-    v = jnp.asarray(value, dtype=float)
-    W = h.shape[0]
-    c0 = sg(jnp.abs(Cm[0, 0]))
-    if initial_contact is None:
-        if mode == "penetration":
-            initial_contact = h < sg(v)
-        else:
-            hmin, hmax = jnp.min(h), jnp.max(h)
-            initial_contact = h <= hmin + 0.1 * (hmax - hmin)
-    mask0 = jnp.asarray(initial_contact, bool)
-
-    if mode == "penetration":
-        g_s = sg(jnp.maximum(jnp.abs(v), 1e-300))
-
-        def system(Cmat, hh, vv, mask):
-            mf = mask.astype(float)
-            A = (mf[:, None] * mf[None, :]) * Cmat / c0 + jnp.diag(1.0 - mf)
-            return A, mf * (vv - hh) / g_s
-
-        def unpack(x, hh, vv):
-            return x * (g_s / c0), vv
-    else:
-        n0 = jnp.maximum(jnp.sum(mask0), 1).astype(float)
-        p_s = sg(v / (cell_size * n0))
-        g_s = p_s * c0
-
-        def system(Cmat, hh, vv, mask):
-            mf = mask.astype(float)
-            A = (mf[:, None] * mf[None, :]) * Cmat / c0 + jnp.diag(1.0 - mf)
-            A = jnp.concatenate([A, -mf[:, None]], axis=1)
-            last = jnp.concatenate([mf / n0, jnp.zeros(1)])[None, :]
-            A = jnp.concatenate([A, last], axis=0)
-            b = jnp.concatenate([-mf * hh / g_s, (vv * sg(1.0 / v))[None]])
-            return A, b
-
-        def unpack(x, hh, vv):
-            return x[:-1] * p_s, x[-1] * g_s
-
-    C_ng, h_ng, v_ng = sg(Cm), sg(h), sg(v)
-    eps = 1e-12
-
-    def body(state):
-        mask, _, it, _ = state
-        A, b = system(C_ng, h_ng, v_ng, mask)
-        x = jnp.linalg.solve(A, b)
-        p, d = unpack(x, h_ng, v_ng)
-        gt = (h_ng - d + C_ng @ p) / g_s
-        new = jnp.where(mask, p / (g_s / c0) > -eps, gt < -eps)
-        done = jnp.all(new == mask) | ~jnp.all(jnp.isfinite(x))
-        new = jnp.where(done, mask, new)
-        return new, x, it + 1, done
-
-    def cond(state):
-        return (~state[3]) & (state[2] < max_steps)
-
-    nx = W if mode == "penetration" else W + 1
-    mask, _, iters, done = jax.lax.while_loop(
-        cond, body, (mask0, jnp.zeros(nx), jnp.asarray(0), jnp.asarray(False)))
-    mask = sg(mask)
-    A, b = system(Cm, h, v, mask)
-    p, d = unpack(jnp.linalg.solve(A, b), h, v)
-    p = jnp.where(mask, p, 0.0)
-    finite = jnp.all(jnp.isfinite(p)) & jnp.isfinite(d)
-    status = jnp.where(~finite, 4, jnp.where(mask[0] | mask[-1], 3, jnp.where(done, 0, 1)))
-    return p, d, status, iters
 
 
 # ---------------------------------------------------------------------------------------------
@@ -287,7 +155,8 @@ class IntervalOperator(eqx.Module):
 
     Attributes:
         tables: ``(W, W, 3)``: row ``n - 1`` holds ``T_n^{-1} [1, j, j^2]`` [Pa/m], zero-padded.
-        matrix: dense window matrix ``(W, W)`` [m/Pa] (:func:`dense_window_matrix`).
+        matrix: dense window matrix ``(W, W)`` [m/Pa]
+            (:meth:`jaxroll.contact.WindowedCompliance.dense`).
         band_left, band_right: ``(B, W)`` influence coefficients of the ``B`` cells left of an
             interval (``c[-s - j]``) and right of it (``c[s + r]``, ``r`` counted from its right
             end), ``s = 1..B`` [m/Pa]: the gaps that steer the iteration.
@@ -302,32 +171,35 @@ class IntervalOperator(eqx.Module):
     dx: jax.Array
 
 
-def toeplitz_nested_solve(column, size, rhs):
-    """Solutions of ``T_n x_n = rhs[:n]`` for every leading block ``T_n`` (``n = 1 .. size``) of
-    the Toeplitz matrix ``T[i, j] = column[(i - j) mod N]`` (non-symmetric allowed), by the
-    Levinson recursion (forward/backward vectors), ``O(size^2)`` per right-hand side.
+def toeplitz_nested_solve(offsets, rhs):
+    """Solutions of ``T_n x_n = rhs[:n]`` for every leading block ``T_n`` (``n = 1 .. W``) of
+    the Toeplitz matrix ``T[i, j] = t_{i-j}`` with ``t_k = offsets[k + W - 1]``
+    (``offsets`` of shape ``(2 W - 1,)``, non-symmetric allowed), by the Levinson recursion
+    (forward/backward vectors), ``O(W^2)`` per right-hand side.
 
     Requires non-singular leading blocks (true for a dissipative compliance, whose symmetric part
     is positive definite). A direct method: differentiable by ordinary autodiff (exact).
 
     Args:
-        column: periodic influence coefficients ``(N,)``; size: static block size ``W <= N``;
-        rhs: ``(W, m)``.
+        offsets: ``(2 W - 1,)`` Toeplitz coefficients; rhs: ``(W, m)``.
 
     Returns:
         ``(W, W, m)``; entry ``[n - 1, :n]`` is ``x_n``, the rest zero.
     """
-    N = column.shape[0]
-    W = int(size)
+    W = (offsets.shape[0] + 1) // 2
     idx = np.arange(W)
-    t_up = column[np.mod(-1 - idx, N)]  # T[0, j + 1] = t_{-1-j}
-    t0 = column[0]
-    f0 = jnp.zeros(W, column.dtype).at[0].set(1.0 / t0)
-    x0 = jnp.zeros((W, rhs.shape[1]), column.dtype).at[0].set(rhs[0] / t0)
+
+    def t(k):  # t_k, clipped where the entry is never used
+        return offsets[np.clip(np.asarray(k) + W - 1, 0, 2 * W - 2)]
+
+    t_up = t(-1 - idx)  # T[0, j + 1] = t_{-1-j} (j <= W - 2 used)
+    t0 = t(0)
+    f0 = jnp.zeros(W, offsets.dtype).at[0].set(1.0 / t0)
+    x0 = jnp.zeros((W, rhs.shape[1]), offsets.dtype).at[0].set(rhs[0] / t0)
 
     def step(carry, n):  # sizes n -> n + 1
         f, b, xs = carry
-        t_row = column[jnp.mod(n - idx, N)]  # T[n, j] = t_{n-j}
+        t_row = offsets[jnp.clip(n - idx + W - 1, 0, 2 * W - 2)]  # T[n, j] = t_{n-j}
         ef, eb, ex = t_row @ f, t_up @ b, t_row @ xs
         den = 1.0 - ef * eb
         bs = jnp.roll(b, 1)  # [0; b]
@@ -345,15 +217,16 @@ def interval_operator(compliance, x, dx, band_cells=8) -> IntervalOperator:
     window cell centres ``x`` [m] (uniform, spacing ``dx``); ``band_cells`` static (see
     :func:`solve_interval`)."""
     (W,) = compliance.shape
-    N = compliance.column.shape[0]
+    c = compliance.offsets
     s = np.arange(1, int(band_cells) + 1)[:, None]
     jj = np.arange(W)[None, :]
-    band_left = compliance.column[np.mod(-s - jj, N)]
-    band_right = compliance.column[np.mod(s + jj, N)]
+    # entries with an offset beyond the window are never used (their cells lie outside it)
+    band_left = c[np.clip(W - 1 - s - jj, 0, 2 * W - 2)]  # c_{-s-j}
+    band_right = c[np.clip(W - 1 + s + jj, 0, 2 * W - 2)]  # c_{s+j}
     j = jnp.arange(W, dtype=float)
     rhs = jnp.stack([jnp.ones(W), j, j * j], axis=1)
-    tables = toeplitz_nested_solve(compliance.column, W, rhs)
-    return IntervalOperator(tables=tables, matrix=dense_window_matrix(compliance), band_left=band_left,
+    tables = toeplitz_nested_solve(c, rhs)
+    return IntervalOperator(tables=tables, matrix=compliance.dense(), band_left=band_left,
                             band_right=band_right, x=x, dx=dx)
 
 
@@ -383,12 +256,12 @@ def solve_interval(op: IntervalOperator, radius, value, *, mode="penetration", i
     contact set is one interval of cells, from the Levinson tables of an
     :class:`IntervalOperator`.
 
-    Same primal-dual active-set iteration as :func:`solve_penetration` (new set = contact cells
-    with ``p > 0`` plus free cells with ``g < 0``), with the set replaced by its hull
+    The library's primal-dual active-set iteration (:func:`jaxroll.contact.active_set_loop`: new
+    set = contact cells with ``p > 0`` plus free cells with ``g < 0``), with the set replaced by its hull
     ``[l, l + n)``; each iteration costs one table row and the gaps on the operator's
     ``band_cells`` cells either side of the interval (``O(band_cells W)``), no factorisation.
     On convergence the full complementarity is checked once (one dense matvec): a set that is
-    not one interval, or a negative gap anywhere outside it, gives ``status = 1``. The returned
+    not one interval, or a negative gap anywhere outside it, gives ``RESULTS.max_steps_reached``. The returned
     pressure is the tables' closed form on the converged interval, differentiable
     (exactly: direct Levinson solve, contact set fixed) w.r.t. the compliance, ``R`` and the
     prescribed value.
@@ -406,9 +279,9 @@ def solve_interval(op: IntervalOperator, radius, value, *, mode="penetration", i
             used inside the root finds, whose final solves are checked).
 
     Returns:
-        ``(pressure [Pa], penetration [m], status, iterations, (l, n))``; ``status`` codes of
-        :data:`jaxroll.contact.CONTACT_STATUS` (0 converged, 1 not converged or not an interval,
-        3 contact at the window edge, 4 non-finite).
+        ``(pressure [Pa], penetration [m], result, iterations, (l, n))``; ``result`` a
+        :data:`jaxroll.result.RESULTS` code (``successful``; ``max_steps_reached``: not
+        converged or not an interval; ``window_too_small``; ``nonfinite``).
     """
     if mode not in ("penetration", "load"):
         raise ValueError(f"mode must be 'penetration' or 'load'; got {mode!r}")
@@ -454,20 +327,14 @@ def solve_interval(op: IntervalOperator, radius, value, *, mode="penetration", i
         new = new.at[i_l].max(viol_l, mode="drop").at[i_r].max(viol_r, mode="drop")
         return new, q
 
-    def body(state):
-        l, n, it, _, _ = state
+    def step(interval, aux):
+        l, n = interval
         new, q = evaluate(l, n)
         ln, nn = hull(new, empty_n)
-        ok = jnp.all(jnp.isfinite(q))
-        done = ((ln == l) & (nn == n)) | ~ok
-        contiguous = jnp.all(new == ((idx >= ln) & (idx < ln + nn)))
-        return jnp.where(done, l, ln), jnp.where(done, n, nn), it + 1, done, contiguous
+        return (ln, nn), (q, jnp.all(new == ((idx >= ln) & (idx < ln + nn))))
 
-    def cond(state):
-        return (~state[3]) & (state[2] < max_steps)
-
-    l, n, iters, done, contiguous = jax.lax.while_loop(
-        cond, body, (l0, n0, jnp.asarray(0), jnp.asarray(False), jnp.asarray(True)))
+    (l, n), (_, contiguous), iters, done = _contact.active_set_loop(
+        step, (jnp.asarray(l0), jnp.asarray(n0)), (jnp.zeros(W), jnp.asarray(True)), max_steps)
     if check:  # full complementarity on the converged interval (no gap < 0 anywhere outside)
         q_c, e_c = _interval_pressure(op_ng, l, n, R_ng, v_ng, mode)
         g_c = x2 - e_c + op_ng.matrix @ q_c
@@ -479,121 +346,50 @@ def solve_interval(op: IntervalOperator, radius, value, *, mode="penetration", i
     d = e / (2.0 * radius)
     finite = jnp.all(jnp.isfinite(p)) & jnp.isfinite(d)
     edge = (n > 0) & ((l == 0) | (l + n == W))
-    status = jnp.where(~finite, 4, jnp.where(edge, 3, jnp.where(done & contiguous, 0, 1)))
-    return p, d, status, iters, (l, n)
+    result = first_failure((~finite, RESULTS.nonfinite), (edge, RESULTS.window_too_small),
+                           (~(done & contiguous), RESULTS.max_steps_reached))
+    return p, d, result, iters, (l, n)
+
+
 
 
 # ---------------------------------------------------------------------------------------------
-# Safeguarded Newton root find with implicit differentiation
+# Per-speed preparation and the algorithms
 # ---------------------------------------------------------------------------------------------
 
 
-def _root(fun, y0, *, tol=1e-10, max_steps=40, max_step=1.0):
-    """Root of a scalar increasing function ``fun`` (traced closure allowed) from ``y0``.
-
-    Newton steps (derivative by ``jax.jvp``) clipped to ``max_step``, kept inside the bracket
-    ``[lo, hi]`` given by the residual signs seen so far (bisection otherwise). Differentiated
-    by :func:`jax.lax.custom_root` (implicit function theorem). Returns ``(y, info)`` with
-    ``info = (iterations, residual, converged)`` (no gradient).
-    """
-
-    def solve(f, y_init):
-        def body(c):
-            y, lo, hi, it, _, _ = c
-            r, dr = jax.jvp(f, (y,), (jnp.ones_like(y),))
-            lo = jnp.where(r < 0, y, lo)
-            hi = jnp.where(r >= 0, y, hi)
-            ok = (dr > 0) & jnp.isfinite(dr) & jnp.isfinite(r)
-            step = jnp.where(ok, -r / jnp.where(ok, dr, 1.0), jnp.where(r < 0, max_step, -max_step))
-            step = jnp.clip(step, -max_step, max_step)
-            y_new = y + step
-            bracketed = jnp.isfinite(lo) & jnp.isfinite(hi)
-            outside = (y_new <= lo) | (y_new >= hi)
-            y_new = jnp.where(bracketed & outside, 0.5 * (lo + hi), y_new)
-            conv = (jnp.abs(y_new - y) < tol) | (jnp.abs(r) < 1e-13)
-            return y_new, lo, hi, it + 1, conv, r
-
-        def cond(c):
-            return (~c[4]) & (c[3] < max_steps)
-
-        inf = jnp.asarray(jnp.inf)
-        out = jax.lax.while_loop(
-            cond, body, (y_init, -inf, inf, jnp.asarray(0), jnp.asarray(False), inf)
-        )
-        # aux as floats (custom_root differentiates its outputs; ints/bools would need float0)
-        return out[0], (out[3].astype(float), jnp.abs(out[5]), out[4].astype(float))
-
-    def tangent_solve(g, y):
-        return y / g(jnp.ones_like(y))
-
-    y, info = jax.lax.custom_root(fun, y0, solve, tangent_solve, has_aux=True)
-    it, res, conv = jax.tree_util.tree_map(jax.lax.stop_gradient, info)
-    return y, (it.astype(int), res, conv > 0.5)
-
-
-# ---------------------------------------------------------------------------------------------
-# Grid and algorithms
-# ---------------------------------------------------------------------------------------------
-
-
-LINEAR_SOLVERS = ("interval", "dense", "gmres")
-
-
-def _grid(material, layer, R, P, V, period, n_cells, cells_per_radius, window, period_factor):
-    """Shared slice grid: the 2D cylinder's grid (:func:`jaxroll.cylinder.line_grid`) for the
-    middle slice's estimated load per unit length (eq. 6 with the relaxed Hertz radius, eq. 8
-    at omega = 0)."""
-    G0 = relaxed_modulus(material)
-    r_h0 = (3.0 * P * R / (16.0 * G0)) ** (1.0 / 3.0)
-    P0 = 3.0 * P / (4.0 * r_h0)
-    dx, L, N, W, period_ok, _, _ = line_grid(material, layer, R, P0, V, period=period, n_cells=n_cells,
-                                             cells_per_radius=cells_per_radius, window=window,
-                                             period_factor=period_factor)
-    return dx, L, N, W, period_ok
-
-
-def _grid_estimate(material, layer, R, P):
-    """Estimated half-width ``a_est`` [m] of the middle slice, as :func:`_grid` uses it (the
-    formula of :func:`jaxroll.cylinder.line_grid` at the load per unit length of eq. 6)."""
-    G0 = relaxed_modulus(material)
-    r_h0 = (3.0 * P * R / (16.0 * G0)) ** (1.0 / 3.0)
-    P0 = 3.0 * P / (4.0 * r_h0)
-    H = layer.H
-    finite_H = jnp.isfinite(H)
-    H_safe = jnp.where(finite_H, H, 1.0)
-    a_thin = jnp.where(finite_H, (15.0 * P0 * R * H_safe**3 / (2.0 * G0)) ** 0.2, jnp.inf)
-    return jnp.minimum(jnp.sqrt(P0 * R / (jnp.pi * G0)), a_thin)
+def middle_slice_load(material, layer, R, P):
+    """Estimated load per unit length [N/m] of the middle slice, [ZG] eq. 6 with the relaxed
+    Hertz radius (eq. 8 at ``omega = 0``): the load the slices' grid is sized for."""
+    r_h0 = hertz_sphere(P, R, material.relaxed_modulus(), layer.nu).contact_radius
+    return 3.0 * P / (4.0 * r_h0)
 
 
 class _Prepared(eqx.Module):
-    """Per-speed data shared by all slices and loads: compliance, dissipation kernel, grid."""
+    """Per-speed data shared by all slices and loads: the window kernel, interval tables, grid."""
 
-    compliance: _contact.WindowedCompliance
-    kernel2: jax.Array
+    kernel: _contact.WindowKernel
     op: IntervalOperator | None
-    dense: jax.Array | None
     x: jax.Array
     dx: jax.Array
-    period: jax.Array
-    n_cells: int = eqx.field(static=True)
+    period: jax.Array | None
 
 
-def _prepare(material, layer, V, dx, L, N, W, images, linear_solver) -> _Prepared:
-    def T(q):
-        return surface_compliance(layer, material, q, 0.0, V)
-
-    K, K2 = _contact.periodic_kernel(T, (L,), (N,), images=images, dissipation=True)
-    C = _contact.windowed_compliance(K, (N,), (W,))
+def prepare(material, layer, V, grid: FixedGrid, linear_solver="interval") -> _Prepared:
+    """Everything the slices of one speed ``V`` [m/s] share (built once per speed)."""
+    if grid.window % 2:
+        raise ValueError(f"the slices' window must hold an even number of cells; got {grid.window}")
+    kernel = line_kernel_builder(material, layer, grid, images=IMAGES)(V)
+    W, dx = grid.window, grid.spacing
     x = (jnp.arange(W, dtype=float) - 0.5 * (W - 1)) * dx
-    op = interval_operator(C, x, dx) if linear_solver == "interval" else None
-    Cd = dense_window_matrix(C) if linear_solver == "dense" else None
-    return _Prepared(compliance=C, kernel2=K2, op=op, dense=Cd, x=x, dx=dx, period=L, n_cells=N)
+    op = interval_operator(kernel.compliance, x, dx) if linear_solver == "interval" else None
+    return _Prepared(kernel=kernel, op=op, x=x, dx=dx, period=None if grid.period is None else grid.period[0])
 
 
-def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slices, linear_solver, tol,
-                max_steps, root_tol, root_max_steps, period_ok) -> SliceSolution:
+def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slices, linear_solver, tol=1e-10,
+                max_steps=60, root_tol=1e-10, root_max_steps=40) -> SliceSolution:
     """One sphere (load ``P``, speed ``V``) on prepared per-speed data; never raises."""
-    x, dx, L, N = prep.x, prep.dx, prep.period, prep.n_cells
+    x, dx = prep.x, prep.dx
     m = (n_slices + 1) // 2
     k = jnp.arange(m, dtype=float)
     weights = jnp.where(k > 0, 2.0, 1.0)  # symmetry: slices +-y_k
@@ -602,25 +398,21 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
         return jnp.sqrt(d_o * (2.0 * R - d_o))
 
     def pen_slice(Rc, d, check=True):
-        """Pressure [Pa] and status of a slice of radius Rc pressed to penetration d."""
+        """Pressure [Pa] and result code of a slice of radius Rc pressed to penetration d."""
         if linear_solver == "interval":
             p, _, st, _, _ = solve_interval(prep.op, Rc, d, mode="penetration", max_steps=max_steps,
                                             check=check)
             return p, st
         pos = d > 0.0
         d_safe = jnp.where(pos, d, 1.0)  # double-where: d <= 0 carries nothing
-        hh = x * x / (2.0 * Rc)
-        if linear_solver == "dense":
-            p, _, st, _ = solve_dense(prep.dense, hh, d_safe, dx, mode="penetration", max_steps=max_steps)
-        else:
-            s = solve_penetration(prep.compliance, hh, d_safe, tol=tol, max_steps=max_steps)
-            p, st = s.pressure, s.status
-        return jnp.where(pos, p, 0.0), jnp.where(pos, st, 0)
+        s = _contact.solve_contact(prep.kernel.compliance, x * x / (2.0 * Rc), penetration=d_safe, tol=tol,
+                                   max_steps=max_steps, linear_solver=linear_solver)
+        return jnp.where(pos, s.pressure, 0.0), jnp.where(pos, s.result, RESULTS.successful)
 
     def slice_outputs(Rc, p):
         Pc = jnp.sum(p) * dx
         Rr = jnp.sum(p * x) * dx / Rc
-        Rr_d = _contact.dissipation_resistance(prep.kernel2, p, (N,), (L,))
+        Rr_d = prep.kernel.resistance(p, dx)
         return Pc, Rr, Rr_d
 
     def middle_load(d_o):
@@ -628,8 +420,8 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
         return jnp.sum(p) * dx
 
     # ---- common core (eqs. 6-8): eq. 7 on the middle slice, unknown y = log(d_o / d_H) ----
-    omega = 2.0 * jnp.pi * V / L
-    r_h = (3.0 * P * R / (16.0 * storage_modulus(material, omega))) ** (1.0 / 3.0)  # eq. 8
+    omega = 2.0 * jnp.pi * V / prep.period if prep.period is not None else jnp.zeros_like(V)
+    r_h = hertz_sphere(P, R, storage_modulus(material, omega), layer.nu).contact_radius  # eq. 8
     r_h = jnp.minimum(r_h, 0.5 * R)
     d_h = jax.lax.stop_gradient(R - jnp.sqrt(R * R - r_h * r_h))  # eq. 2 inverted
 
@@ -640,9 +432,9 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
         pos = p_alg > 0.0
         return jnp.where(pos, jnp.log(jnp.where(pos, p_alg, 1.0) / target), -1e3)
 
-    y_core, (it_core, res_core, conv_core) = _root(core_residual, jnp.asarray(0.0),
-                                                   tol=root_tol, max_steps=root_max_steps)
-    it_total, res_last, conv = it_core, res_core, conv_core
+    y_core, core = newton_root(core_residual, jnp.asarray(0.0), tol=root_tol, max_steps=root_max_steps,
+                               max_step=1.0)
+    it_total, res_last, conv = core.iterations, core.residual, core.converged
 
     def slice_geometry(d_o):
         r_c = contact_radius(d_o)
@@ -663,9 +455,9 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
             pos = Pc > 0.0
             return jnp.where(pos, jnp.log(jnp.where(pos, Pc, 1.0) / P), -1e3)
 
-        y_sp, (it_sp, res_sp, conv_sp) = _root(sp_residual, jax.lax.stop_gradient(y_core),
-                                               tol=root_tol, max_steps=root_max_steps)
-        it_total, res_last, conv = it_core + it_sp, res_sp, conv_core & conv_sp
+        y_sp, sp = newton_root(sp_residual, jax.lax.stop_gradient(y_core), tol=root_tol,
+                               max_steps=root_max_steps, max_step=1.0)
+        it_total, res_last, conv = it_total + sp.iterations, sp.residual, conv & sp.converged
         d_o = d_h * jnp.exp(y_sp)
     else:
         d_o = d_h * jnp.exp(y_core)
@@ -676,17 +468,9 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
         r2 = r_c * r_c
         loads = 0.75 * P * (r2 - y * y - dy * dy / 12.0) / (r2 * r_c)
 
-        G0 = relaxed_modulus(material)
-        H = layer.H
-        finite_H = jnp.isfinite(H)
-        H_safe = jnp.where(finite_H, H, 1.0)
-
         def load_slice(Rc_k, P_k):
-            # initial contact set: 2D Hertz / thin-layer half-width of the slice (as the cylinder)
-            a_k = jnp.sqrt(P_k * Rc_k / (jnp.pi * G0))
-            a_k = jnp.minimum(a_k, jnp.where(
-                finite_H, (15.0 * P_k * Rc_k * H_safe**3 / (2.0 * G0)) ** 0.2, jnp.inf))
-            hh = x * x / (2.0 * Rc_k)
+            # initial contact set: the stationary 2D half-width of the slice (as the cylinder)
+            a_k = estimate_contact_size(material, layer, Rc_k, P_k, "cylinder")
             init = jnp.abs(x) < jnp.maximum(a_k, dx)
             if linear_solver == "interval":
                 first = jnp.argmax(init)
@@ -694,21 +478,16 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
                 p_k, d_k, st_k, _, _ = solve_interval(prep.op, Rc_k, P_k, mode="load", initial=(first, n0),
                                                       max_steps=max_steps)
                 return p_k, st_k, d_k
-            if linear_solver == "dense":
-                p_k, d_k, st_k, _ = solve_dense(prep.dense, hh, P_k, dx, mode="load", initial_contact=init,
-                                                max_steps=max_steps)
-                return p_k, st_k, d_k
-            s = _contact.solve_contact(prep.compliance, hh, P_k, dx, initial_contact=init, tol=tol,
-                                       max_steps=max_steps, throw=False)
-            return s.pressure, s.status, s.penetration
+            s = _contact.solve_contact(prep.kernel.compliance, x * x / (2.0 * Rc_k), P_k, dx, initial_contact=init,
+                                       tol=tol, max_steps=max_steps, linear_solver=linear_solver)
+            return s.pressure, s.result, s.penetration
 
         p, st, pen = jax.vmap(load_slice)(Rc, loads)
     else:
         p, st = jax.vmap(pen_slice)(Rc, d_c)
         pen = d_c
     Pc, Rr, Rr_d = jax.vmap(slice_outputs)(Rc, p)
-    status = jnp.max(st)
-    status = jnp.where(conv, status, jnp.maximum(status, 5))
+    result = merge_results(jnp.max(st), first_failure((~conv, RESULTS.root_find_failed)))
     return SliceSolution(
         resistance=jnp.sum(weights * Rr) * dy,
         resistance_dissipation=jnp.sum(weights * Rr_d) * dy,
@@ -723,221 +502,81 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
         slice_resistance=Rr,
         pressure=p,
         x=x,
-        status=status,
+        result=result,
         iterations=it_total,
         residual=res_last,
-        period_ok=period_ok,
     )
 
 
-def _check_options(algorithm, n_slices, linear_solver):
+
+
+def check_options(algorithm, n_slices, linear_solver):
+    """Validate the static options of a slice algorithm; returns ``n_slices`` as an int."""
     if linear_solver not in LINEAR_SOLVERS:
         raise ValueError(f"linear_solver must be one of {LINEAR_SOLVERS}; got {linear_solver!r}")
     if algorithm not in ALGORITHMS:
         raise ValueError(f"algorithm must be one of {ALGORITHMS}; got {algorithm!r}")
-    n_slices = int(n_slices)
-    if n_slices < 1 or n_slices % 2 == 0:
-        raise ValueError(f"n_slices must be a positive odd integer; got {n_slices}")
-    return n_slices
+    if isinstance(n_slices, bool) or not isinstance(n_slices, (int, np.integer)) or n_slices < 1 or n_slices % 2 == 0:
+        raise ValueError(f"n_slices must be a positive odd integer; got {n_slices!r}")
+    return int(n_slices)
 
 
-def solve_slices(
-    material,
-    layer: Layer,
-    radius,
-    load,
-    speed,
-    *,
-    algorithm: str = "PD",
-    n_slices: int = 21,
-    period=None,
-    n_cells: int | None = None,
-    cells_per_radius: int | None = None,
-    window: float = 3.0,
-    period_factor: float = 20.0,
-    images: int = 4,
-    tol: float = 1e-10,
-    max_steps: int = 60,
-    root_tol: float = 1e-10,
-    root_max_steps: int = 40,
-    linear_solver: str = "interval",
-    window_cells: int | None = None,
-    throw: bool = True,
-) -> SliceSolution:
-    """Solve a slice algorithm of [ZG] sec. 3 (PD, PP or SP) for a rigid sphere.
-
-    Args:
-        material: material of :mod:`jaxroll.material`.
-        layer: :class:`jaxroll.layer.Layer`.
-        radius: sphere radius ``R`` [m].
-        load: vertical load ``P`` [N], positive.
-        speed: rolling speed ``V`` [m/s], >= 0.
-        algorithm: static, ``"PD"`` (eq. 9), ``"PP"`` (eq. 10) or ``"SP"`` (eq. 11).
-        n_slices: static odd number of slices across ``[-r_c, r_c]`` (paper: 21).
-        period, n_cells, cells_per_radius, window, period_factor, images: resolution of the 2D
-            slices, as in :func:`jaxroll.cylinder.solve_cylinder`, chosen for the middle slice
-            (estimated load ``3P/(4 r_c^H)`` with the relaxed modulus) and shared by all slices.
-            The paper used ``period = 0.2`` m and 0.25 mm cells.
-        tol, max_steps: contact solver tolerance (GMRES only) and active-set iteration limit.
-        linear_solver: static, ``"interval"`` (default: :func:`solve_interval`, the contact set
-            is one interval of cells and every solve is a closed form from Levinson tables of
-            the Toeplitz window operator built once; fastest), ``"dense"`` (LU on the dense
-            window matrix, :func:`solve_dense`) or ``"gmres"`` (matrix-free FFT operator:
-            :func:`solve_penetration` and :func:`jaxroll.contact.solve_contact`). All three
-            solve the same discrete problem (checked to rounding in the tests).
-        window_cells: static even number of window cells, overriding the automatic window
-            (needed with a fixed ``period`` under ``jit``/``vmap``, where the automatic window
-            is the whole period).
-        root_tol, root_max_steps: tolerance on ``log d_o`` and iteration limit of the root finds.
-        throw: raise (``eqx.error_if``) on failure; otherwise report it in ``status``.
-
-    Returns:
-        :class:`SliceSolution`.
-    """
-    n_slices = _check_options(algorithm, n_slices, linear_solver)
-    R, P, V = roller_inputs(radius, load, speed)
-    dx, L, N, W, period_ok = _grid(material, layer, R, P, V, period, n_cells, cells_per_radius,
-                                   window, period_factor)
-    if window_cells is not None:
-        W = int(window_cells)
-        if W % 2 or not 2 <= W <= N:
-            raise ValueError(f"window_cells must be even and in [2, n_cells = {N}]; got {W}")
-    prep = _prepare(material, layer, V, dx, L, N, W, images, linear_solver)
-    s = _solve_case(prep, material, layer, R, P, V, algorithm=algorithm, n_slices=n_slices,
-                    linear_solver=linear_solver, tol=tol, max_steps=max_steps, root_tol=root_tol,
-                    root_max_steps=root_max_steps, period_ok=period_ok)
-    if throw:
-        Rr = eqx.error_if(s.resistance, s.status != 0,
-                          "slice algorithm failed: a contact solve or the root find did not converge "
-                          "(status codes: jaxroll.contact.CONTACT_STATUS, 5 = root find)")
-        s = eqx.tree_at(lambda t: t.resistance, s, Rr)
-    return s
+def solve(material, layer: Layer, R, P, V, grid: FixedGrid, *, algorithm="SP", n_slices=21, tol=1e-10,
+          max_steps=60, root_tol=1e-10, root_max_steps=40, linear_solver="interval") -> SliceSolution:
+    """Solve a slice algorithm of [ZG] sec. 3 (PD eq. 9, PP eq. 10, SP eq. 11) for a rigid sphere
+    (radius ``R`` [m], load ``P`` [N], speed ``V`` [m/s]) on the 1D ``grid`` shared by its
+    ``n_slices`` (odd; paper 21) plane-strain slices. ``tol``: contact tolerance (GMRES only);
+    ``max_steps``: active-set iteration limit; ``root_tol``, ``root_max_steps``: tolerance on
+    ``log d_o`` and iteration limit of the root finds; ``linear_solver``: ``"interval"``
+    (default; :func:`solve_interval`), ``"dense"`` or ``"gmres"`` (all solve the same discrete
+    problem). Never raises: see ``result``."""
+    n_slices = check_options(algorithm, n_slices, linear_solver)
+    return _solve_case(prepare(material, layer, V, grid, linear_solver), material, layer, R, P, V,
+                       algorithm=algorithm, n_slices=n_slices, linear_solver=linear_solver, tol=tol,
+                       max_steps=max_steps, root_tol=root_tol, root_max_steps=root_max_steps)
 
 
-def rolling_resistance_slices_grid(
-    material,
-    layer: Layer,
-    radius,
-    loads,
-    speeds,
-    *,
-    algorithm: str = "PD",
-    n_slices: int = 21,
-    period=0.2,
-    n_cells: int = 2**10,
-    window: float = 3.0,
-    window_cells: int | None = None,
-    period_factor: float = 20.0,
-    images: int = 4,
-    tol: float = 1e-10,
-    max_steps: int = 60,
-    root_tol: float = 1e-10,
-    root_max_steps: int = 40,
-    linear_solver: str = "interval",
-    speed_batch: int = 1,
-):
-    """Slice-algorithm ``R_r`` [N] on the grid ``speeds x loads`` (the paper's reference case)
-    at one fixed resolution, in one traced program.
-
-    The compliance (and the Levinson tables of :func:`solve_interval`) depend on the speed only:
-    they are built once per speed (``lax.map`` over speeds, ``speed_batch`` at a time) and
-    shared by all slices of all loads of that speed (``vmap`` over loads). Each point equals
-    :func:`solve_slices` at the same ``period``, ``n_cells`` and ``window_cells``. Never raises
-    on a failed point: see ``status``.
-
-    Args:
-        material, layer, radius: as :func:`solve_slices`.
-        loads: 1D array of loads [N]; speeds: 1D array of speeds [m/s].
-        algorithm, n_slices, images, tol, max_steps, root_tol, root_max_steps, linear_solver:
-            as :func:`solve_slices`.
-        period: period ``L`` [m] (default the paper's 0.2 m); n_cells: static cells per period
-            (default 1024: 0.195 mm cells).
-        window, window_cells: static window cells (default ``2 ceil(window a_est/dx)`` for the
-            largest load, ``a_est`` as in :func:`solve_slices`); concrete ``loads`` are needed
-            for the automatic window.
-        period_factor: the period is flagged (``period_ok``) below
-            ``period_factor max(4 a_est, V tau)``.
-
-    Returns:
-        dict of ``(n_speeds, n_loads)`` arrays: ``value`` (moment form [N]), ``dissipation``
-        [N], ``load`` (sum of the slice loads [N]), ``contact_radius`` (``r_c`` [m]),
-        ``penetration`` (``d_o`` [m]), ``status``, ``iterations``, ``period_ok``.
-    """
-    n_slices = _check_options(algorithm, n_slices, linear_solver)
-    R = as_float(radius)
-    loads_in = loads
-    loads, speeds = as_float(loads), as_float(speeds)
-    if loads.ndim != 1 or speeds.ndim != 1:
-        raise ValueError("loads and speeds must be 1D arrays")
-    N = int(n_cells)
-    if window_cells is None:
-        try:
-            with jax.ensure_compile_time_eval():  # concrete inputs stay concrete under jit
-                p_max = float(np.max(np.asarray(loads_in)))
-                a_est = float(_grid_estimate(material, layer, radius, p_max))
-                dx_c = float(period) / N
-        except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError, TypeError):
-            raise ValueError("with traced loads, material, layer, radius or period, pass window_cells "
-                             "(static)") from None
-        W = min(N, 2 * int(np.ceil(window * a_est / dx_c)))
-    else:
-        W = int(window_cells)
-    if W % 2 or not 2 <= W <= N:
-        raise ValueError(f"window_cells must be even and in [2, n_cells = {N}]; got {W}")
-    L = as_float(period)
-    dx = L / N
-
-    def one_speed(V):
-        prep = _prepare(material, layer, V, dx, L, N, W, images, linear_solver)
-
-        def one_load(P):
-            *_, ok = _grid(material, layer, R, P, V, L, N, None, window, period_factor)
-            s = _solve_case(prep, material, layer, R, P, V, algorithm=algorithm, n_slices=n_slices,
-                            linear_solver=linear_solver, tol=tol, max_steps=max_steps, root_tol=root_tol,
-                            root_max_steps=root_max_steps, period_ok=ok)
-            return dict(value=s.resistance, dissipation=s.resistance_dissipation, load=s.load,
-                        contact_radius=s.contact_radius, penetration=s.middle_penetration,
-                        status=s.status, iterations=s.iterations, period_ok=s.period_ok)
-
-        return jax.vmap(one_load)(loads)
-
-    return jax.lax.map(one_speed, speeds, batch_size=int(speed_batch))
+def _result(s: SliceSolution, grid: FixedGrid, material, layer, R, P, V) -> RollingResult:
+    a_est = estimate_contact_size(material, layer, R, middle_slice_load(material, layer, R, P), "cylinder")
+    ok = grid.period_ok(4.0 * a_est, V * material.longest_time(), 1)
+    return full_model_result(
+        s.resistance, s.resistance_dissipation, s.contact_radius, layer.H,
+        result=merge_results(s.result, first_failure((~ok, RESULTS.period_too_short))),
+        penetration=s.middle_penetration, pressure=s.pressure, grid=(s.x, s.y),
+        iterations=s.iterations, residual=s.residual,
+    )
 
 
-def rolling_resistance_slices(material, layer, radius, load, speed, *, algorithm: str = "PD",
-                              n_slices: int = 21, **cylinder_options) -> RollingResult:
-    """Rolling resistance [N] of a rigid sphere from 2D cylinder slices ([ZG] sec. 3).
-
-    ``R_r = sum_k R_r,c(y_k) dy`` over ``n_slices`` plane-strain cylinder slices, with the
-    algorithm ``"PD"`` (geometric consistency, eq. 9), ``"PP"`` (load equilibrium, eq. 10) or
-    ``"SP"`` (both, eq. 11); see :func:`solve_slices` and the module docstring.
-
-    Args:
-        material, layer: material and :class:`jaxroll.layer.Layer`.
-        radius: sphere radius ``R`` [m]; load: ``P`` [N]; speed: ``V`` [m/s].
-        algorithm: ``"PD"``, ``"PP"`` or ``"SP"``.
-        n_slices: odd number of slices (paper: 21).
-        **cylinder_options: ``period``, ``n_cells``, ``cells_per_radius``, ``window``,
-            ``period_factor``, ``images``, ``tol``, ``max_steps``, ``root_tol``,
-            ``root_max_steps``, ``linear_solver``, ``window_cells``, ``throw`` (see :func:`solve_slices`).
+def rolling_resistance(material, layer: Layer, R, P, V, grid: FixedGrid, **options) -> RollingResult:
+    """Rolling resistance [N] of a rigid sphere from 2D cylinder slices ([ZG] sec. 3),
+    ``R_r = sum_k R_r,c(y_k) dy``; ``options`` as :func:`solve`.
 
     Returns:
         :class:`jaxroll.result.RollingResult` with ``regime = 4`` ("full": built on the full 2D
         contact model), ``contact_radius`` = ``r_c`` of eq. 2, ``penetration`` = ``d_o`` (middle
         slice), ``truncation`` = relative difference of the moment and dissipation forms (a
         discretisation-error estimate), ``pressure`` = slice pressures ``(m, W)`` on
-        ``grid = (x, y_k)``, ``status``, ``iterations`` (Newton), ``residual`` (root find).
+        ``grid = (x, y_k)``, ``result``, ``iterations`` (Newton), ``residual`` (root find).
     """
-    s = solve_slices(material, layer, radius, load, speed, algorithm=algorithm, n_slices=n_slices,
-                     **cylinder_options)
-    return slice_result(s, layer)
+    return _result(solve(material, layer, R, P, V, grid, **options), grid, material, layer, R, P, V)
 
 
-def slice_result(s: SliceSolution, layer: Layer) -> RollingResult:
-    """:class:`jaxroll.result.RollingResult` of a :class:`SliceSolution` (see
-    :func:`rolling_resistance_slices` for the fields)."""
-    return full_model_result(
-        s.resistance, s.resistance_dissipation, s.contact_radius, layer.H, ok=(s.status == 0) & s.period_ok,
-        penetration=s.middle_penetration, pressure=s.pressure, grid=(s.x, s.y), status=s.status,
-        iterations=s.iterations, residual=s.residual,
-    )
+def rolling_resistance_grid(material, layer: Layer, R, loads, speeds, grid: FixedGrid, *, algorithm="SP",
+                            n_slices=21, linear_solver="interval", **options) -> RollingResult:
+    """Slice-algorithm ``R_r`` [N] on ``speeds x loads`` (fields ``(n_speeds, n_loads)``), each
+    point equal to :func:`rolling_resistance` on ``grid``. The compliance and the Levinson tables
+    depend on the speed only: built once per speed (``lax.map``) and shared by all slices of all
+    loads of that speed (``vmap`` over loads)."""
+    n_slices = check_options(algorithm, n_slices, linear_solver)
+
+    def one_speed(V):
+        prep = prepare(material, layer, V, grid, linear_solver)
+
+        def one_load(P):
+            s = _solve_case(prep, material, layer, R, P, V, algorithm=algorithm, n_slices=n_slices,
+                            linear_solver=linear_solver, **options)
+            return _result(s, grid, material, layer, R, P, V)
+
+        return jax.vmap(one_load)(loads)
+
+    return jax.lax.map(one_speed, speeds)

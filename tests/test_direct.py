@@ -16,8 +16,16 @@ R = 0.02
 HALF = jr.Layer(jnp.inf)
 
 
+_DIRECT_OPTIONS = ("pressure", "period", "n_terms", "modulus", "rtol")
+
+
 def rr(layer=HALF, **kw):
+    """The front door with the direct method; its options (``pressure``, ``period``, ...) build
+    the method object; results come back with their result code (no raise), as under vmap."""
     kw.setdefault("radius", R)
+    opts = {k: kw.pop(k) for k in _DIRECT_OPTIONS if k in kw}
+    kw.setdefault("method", jr.Direct(**opts))
+    kw.setdefault("throw", False)
     return jr.rolling_resistance(MAT, layer, **kw)
 
 
@@ -64,7 +72,7 @@ def test_quadrature_converges_and_estimate():
     Rs = jnp.where(Hs < 1e-4, 2000.0, R)
 
     def run(quadrature):
-        f = lambda H, V, P, Rr: jr.direct_rolling_resistance(MAT, jr.Layer(H), radius=Rr, load=P, speed=V,
+        f = lambda H, V, P, Rr: jr.direct.direct_rolling_resistance(MAT, jr.Layer(H), radius=Rr, load=P, speed=V,
                                                              quadrature=quadrature)
         return jax.jit(jax.vmap(f))(Hs, Vs, Ps, Rs)
 
@@ -105,15 +113,15 @@ def _eq37_numpy(layer, P, r_c, Lx, Ly, N, V, model):
 )
 def test_periodic_matches_paper_formula(model, layer, P, Rr):
     # oracle: the paper's eqs. 37/42/47 assembled in NumPy (scipy Bessel); rounding only
-    res = jr.rolling_resistance(MAT, layer, radius=Rr, load=P, speed=0.01, pressure=model, period=(0.2, 0.15),
-                                n_terms=40)
+    res = jr.rolling_resistance(MAT, layer, radius=Rr, load=P, speed=0.01,
+                                method=jr.Direct(pressure=model, period=(0.2, 0.15), n_terms=40))
     ref = _eq37_numpy(layer, P, float(res.contact_radius), 0.2, 0.15, 40, 0.01, model)
     assert float(res.value) == pytest.approx(ref, rel=1e-11)
 
 
 def test_periodic_converges_to_aperiodic_at_low_speed():
     # oracle: the aperiodic limit (single roller); at V tau << L the periodic train is the
-    # same physics and the gap is truncation only: N = 50 falls 5-25 % short (DESIGN: 78-95 %)
+    # same physics and the gap is truncation only: N = 50 falls 5-25 % short (docs/design.md section 2: 78-95 %)
     # and the gap shrinks ~1/N (the S^2 ~ q^-4 tail); tolerances from that 1/N law
     lay = jr.Layer(30e-3)
     ap = float(rr(lay, load=50.0, speed=1e-4).value)
@@ -128,7 +136,7 @@ def test_periodic_converges_to_aperiodic_at_low_speed():
 
 @pytest.mark.parametrize("V,lo,hi", [(1.0, 0.94, 0.98), (3.0, 0.94, 0.98), (10.0, 0.94, 0.98)])
 def test_periodic_vs_aperiodic_high_speed(V, lo, hi):
-    # oracle: DESIGN section 2: at V tau > L/(2 pi)... the layer does not recover between
+    # oracle: docs/design.md section 2: at V tau > L/(2 pi)... the layer does not recover between
     # passes, the periodic train gives 2-6 % less at 1-10 m/s for L = 0.2 m; N = 200 makes the
     # truncation < 1e-3 here (its estimate is checked)
     lay = jr.Layer(30e-3)
@@ -148,7 +156,7 @@ def test_cylinder_periodic_converges():
 
 @pytest.mark.slow
 def test_periodic_2000_terms_low_speed():
-    # DESIGN: even 2000 terms still miss (by up to 0.1 %) at V = 1e-4 m/s (H = 30 mm,
+    # docs/design.md section 2: even 2000 terms still miss (by up to 0.1 %) at V = 1e-4 m/s (H = 30 mm,
     # L = 0.2 m); measured here at P = 50 N: 0.045 %
     lay = jr.Layer(30e-3)
     ap = float(rr(lay, load=50.0, speed=1e-4).value)
@@ -161,25 +169,29 @@ def test_periodic_2000_terms_low_speed():
 def test_auto_regimes_and_validity():
     res = rr(jr.Layer(30e-3), load=50.0, speed=0.01)
     assert int(res.regime) == 0 and bool(res.valid) and float(res.gamma) < 0.9
-    res = jr.rolling_resistance(MAT, jr.Layer(10e-6), radius=2000.0, load=500.0, speed=0.01)
+    res = rr(jr.Layer(10e-6), radius=2000.0, load=500.0, speed=0.01)
     assert int(res.regime) == 1 and bool(res.valid) and float(res.gamma) > 300
-    res = jr.rolling_resistance(MAT, jr.Layer(10e-6, nu=0.3), radius=2000.0, load=500.0, speed=0.01)
+    res = rr(jr.Layer(10e-6, nu=0.3), radius=2000.0, load=500.0, speed=0.01)
     assert int(res.regime) == 2 and bool(res.valid)
     # H = 5 mm, P = 150 N: gamma ~ 1 > 0.9 ([ZG] fig. 7): outside the thick range -> warning
     with pytest.warns(jr.ValidityWarning, match="outside the range of validity"):
         res = rr(jr.Layer(5e-3), load=150.0, speed=0.01)
     assert not bool(res.valid) and int(res.regime) == 0
-    # under jit: a flag, no warning
+    assert int(res.result) == jr.RESULTS.outside_pressure_model
+    # under jit: a result code, no warning
     f = jax.jit(lambda P: rr(jr.Layer(5e-3), load=P, speed=0.01))
     out = f(150.0)
     assert not bool(out.valid)
+    # throw=True (the default of the front door): the same point raises with the reason
+    with pytest.raises(Exception, match="outside the range of validity"):
+        jr.rolling_resistance(MAT, jr.Layer(5e-3), radius=R, load=150.0, speed=0.01, method="direct")
 
 
 def test_auto_matches_explicit_model():
     # "auto" selects the model; the value must equal the explicit choice (same code path)
     lay = jr.Layer(10e-6)
-    a = jr.rolling_resistance(MAT, lay, radius=2000.0, load=500.0, speed=0.01)
-    b = jr.rolling_resistance(MAT, lay, radius=2000.0, load=500.0, speed=0.01, pressure="thin")
+    a = rr(lay, radius=2000.0, load=500.0, speed=0.01)
+    b = rr(lay, radius=2000.0, load=500.0, speed=0.01, pressure="thin")
     assert float(a.value) == pytest.approx(float(b.value), rel=1e-14)
 
 
@@ -228,7 +240,8 @@ def test_gradients_sphere_aperiodic():
     # oracle: central finite differences (step 1e-5 relative: truncation ~1e-10, rounding ~1e-11)
     def fun(p):
         mat = jr.StandardLinearSolid(p["G0"], p["tau"], p["f"])
-        return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=p["R"], load=p["P"], speed=p["V"]).value
+        return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=p["R"], load=p["P"], speed=p["V"],
+                                     method="direct", throw=False).value
 
     _fd_check(fun, dict(G0=3e6, tau=0.25, f=1.0, H=5e-3, R=0.02, P=60.0, V=0.01))
 
@@ -237,14 +250,15 @@ def test_gradients_jit_and_thin_and_cylinder():
     # oracle: central finite differences, as above
     def thin(p):
         mat = jr.StandardLinearSolid(p["G0"], p["tau"], 1.0)
-        return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=2000.0, load=p["P"], speed=p["V"]).value
+        return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=2000.0, load=p["P"], speed=p["V"],
+                                     method="direct").value
 
     _fd_check(thin, dict(G0=3e6, tau=0.25, H=10e-6, P=800.0, V=0.003))
 
     def cyl(p):
         mat = jr.StandardLinearSolid(3e6, p["tau"], p["f"])
         return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=p["R"], load=p["P"], speed=p["V"],
-                                     geometry="cylinder").value
+                                     geometry="cylinder", method="direct").value
 
     _fd_check(cyl, dict(tau=0.25, f=1.0, H=30e-3, R=0.02, P=1000.0, V=0.05))
 
@@ -252,8 +266,8 @@ def test_gradients_jit_and_thin_and_cylinder():
 def test_gradients_periodic():
     def per(p):
         mat = jr.StandardLinearSolid(p["G0"], 0.25, 1.0)
-        return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=0.02, load=p["P"], speed=p["V"], period=0.2,
-                                     n_terms=30).value
+        return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=0.02, load=p["P"], speed=p["V"],
+                                     method=jr.Direct(period=0.2, n_terms=30)).value
 
     _fd_check(per, dict(G0=3e6, H=30e-3, P=60.0, V=0.1))
 
@@ -269,7 +283,7 @@ def test_gradients_periodic():
 def test_bad_inputs_raise(kw, msg):
     kw.setdefault("radius", R)
     with pytest.raises(Exception, match=msg):
-        jr.rolling_resistance(MAT, jr.Layer(30e-3), **kw)
+        jr.rolling_resistance(MAT, jr.Layer(30e-3), method="direct", **kw)
 
 
 def test_bad_thickness_raises():
@@ -286,15 +300,15 @@ def test_contact_larger_than_period_raises():
 
 
 def test_option_errors():
-    with pytest.raises(NotImplementedError, match="use geometry='sphere'"):
+    with pytest.raises(ValueError, match=r"Slices computes geometry \('sphere',\)"):
         rr(load=10.0, speed=0.1, geometry="cylinder", method="PD")
-    with pytest.raises(ValueError, match="n_terms"):  # n_terms is the 3D sphere's option only
-        rr(load=10.0, speed=0.1, geometry="cylinder", method="full", n_terms=10)
+    with pytest.raises(ValueError, match="n_terms is the cut-off of a periodic compliance"):
+        jr.FixedGrid(1e-4, 10, n_terms=10)
     with pytest.raises(ValueError, match="unknown method"):
         rr(load=10.0, speed=0.1, method="magic")
-    with pytest.raises(ValueError, match="unknown pressure"):
+    with pytest.raises(ValueError, match="Direct.pressure must be one of"):
         rr(load=10.0, speed=0.1, pressure="medium")
-    with pytest.raises(ValueError, match="n_terms"):
+    with pytest.raises(ValueError, match="needs both period and n_terms"):
         rr(load=10.0, speed=0.1, period=0.2)
     with pytest.raises(ValueError, match="scalar"):
         rr(load=jnp.ones(3), speed=0.1)
@@ -321,7 +335,7 @@ def _direct_errors(modulus):
     def one(f, zeta):
         mat = jr.StandardLinearSolid(3e6, 0.25, f)
         V = zeta * A0 / 0.25
-        d = jr.direct_rolling_resistance(mat, HALF, radius=R, load=PCYL, speed=V, geometry="cylinder",
+        d = jr.direct.direct_rolling_resistance(mat, HALF, radius=R, load=PCYL, speed=V, geometry="cylinder",
                                          modulus=modulus, rtol=1e-6).value
         return d / jr.exact_cylinder_halfspace(mat, R, PCYL, V).rolling_resistance - 1.0
 

@@ -72,7 +72,9 @@ def test_reference_low_speed_limit_matches_direct_method(tiny):
     rep, _, _ = tiny
     cr = rep.cases[0]
     assert cr.speeds[0] == pytest.approx(1e-4) and cr.loads[1] == pytest.approx(150.0)
-    assert np.all(cr.reference.status == 0)
+    # converged everywhere; at 1 m/s (V tau = 0.25 m) the paper's 0.2 m period is flagged as short
+    assert np.all(cr.reference.status[:, 0] == 0)
+    assert np.all(np.isin(cr.reference.status, [0, jr.RESULTS.period_too_short]))
     ref, direct = cr.reference.values[1, 0], cr.methods["direct"].values[1, 0]
     assert direct == pytest.approx(ref, rel=0.03)
     # and the independent single-point call of the public API gives the same direct value

@@ -1,0 +1,302 @@
+"""Computational grids of the full and slice models: explicit (:class:`FixedGrid`) or sized from
+the inputs (:class:`AutoGrid`), and the rules that size them.
+
+A grid is the discretisation of the layer surface: square cells of side ``spacing`` [m]
+carrying a piecewise-constant pressure, a square *window* of ``window`` cells per side around
+the roller where the pressure may be non-zero, and the surface period (``period`` [m]: a
+periodic train of rollers a period apart, as in [ZG]) with, in 3D, the Fourier cut-off
+``n_terms`` of the periodic compliance.
+
+Static capacity apart from traced values: array sizes (window cells, period cells, Fourier
+terms) must be known when a program is traced, while physical values (speed, load, material
+parameters) are traced under ``jit``/``vmap``/``grad``. A :class:`FixedGrid` is absolute and
+the same for every point of a batch; an :class:`AutoGrid` is sized only from concrete values
+(``method.resolve(...)`` turns it into the :class:`FixedGrid` covering a whole envelope of loads
+and speeds), and a front door called with traced inputs and an :class:`AutoGrid` raises rather
+than guessing.
+
+The sizing rules (one home for each):
+
+* **sphere** (full 3D model): cell ``a = r/c`` with ``r`` the stationary contact radius
+  (:func:`jaxroll.contact_size.estimate_contact_size`) and ``c = 12`` cells per radius, at least
+  ``2 r/H`` on thin layers (the compliance kernel is only ~H wide); window
+  ``2 ceil(1.25 r_max/a) + 1`` cells; period ``Lx >= 20 max(r, V t_max)``,
+  ``Ly >= 20 r`` in powers of two of cells (``t_max`` the material's longest retardation
+  time), ``Lx`` capped at 2^13 cells; Fourier cut-off ``n_terms`` = the larger cell count.
+* **line** (full 2D cylinder and the slices of PD/PP/SP): cell ``a/c`` with ``a`` the
+  estimated half-width and ``c`` by the speed (measured against the exact half-space cylinder,
+  <= 1 % error of the moment form): 25 cells for ``0.03 <= V tau/a0 <= 30``, 128 below, 50 up
+  to 300, 100 above, and at least ``2 a/H``; window ``2 ceil(3 a_max/dx)`` cells; period
+  ``L >= 20 max(4 a, V t_max)`` (the elastic log-kernel interaction of periodic images tilts
+  the pressure: at ``V tau = a0``, ``L = 20 a0`` gives -0.76 % in R_r, ``80 a0`` 0.0 %),
+  capped at 2^21 cells.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .contact_size import estimate_contact_size
+
+__all__ = ["AutoGrid", "FixedGrid", "PERIOD_FACTOR", "union"]
+
+#: The period must exceed ``PERIOD_FACTOR max(contact size, V t_max)`` for the layer to recover
+#: between passes (docs/design.md section 3: measured on the exact 2D solution).
+PERIOD_FACTOR = 20.0
+MAX_SPHERE_CELLS = 2**13
+MAX_LINE_CELLS = 2**21
+SPHERE_CELLS_PER_RADIUS = 12
+SPHERE_WINDOW_RADII = 1.25
+LINE_WINDOW_RADII = 3.0
+
+
+def _concrete_float(name, x):
+    if isinstance(x, jax.core.Tracer):
+        raise ValueError(f"FixedGrid.{name} must be a concrete number (a grid is static configuration)")
+    if isinstance(x, (str, bytes)) or np.ndim(x) != 0:
+        raise ValueError(f"FixedGrid.{name} must be a number; got {x!r}")
+    v = float(x)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"FixedGrid.{name} must be positive and finite; got {v}")
+    return v
+
+
+def _even_cells(L, dx):
+    n = max(2, int(round(L / dx)))
+    return n + n % 2
+
+
+class FixedGrid(eqx.Module):
+    """An explicit grid: the same discretisation for every point of a batch.
+
+    Args:
+        spacing: cell size ``a`` [m] (square cells; the paper's 3D grid: 0.25 mm).
+        window: cells per side of the pressure window centred under the roller (paper: 41 in
+            3D). The contact must stay inside it (else ``RESULTS.window_too_small``).
+        period: period of the surface [m]: a number (``Lx = Ly`` for spheres), ``(Lx, Ly)``
+            (spheres), or ``None`` for an infinite layer. With a period, the cell size is
+            adjusted to hold a whole, even number of cells per period.
+        n_terms: Fourier cut-off ``|m_x|, |m_y| <= n_terms`` of the periodic 3D compliance
+            (paper: 500); default the larger period cell count. Spheres only.
+
+    ``spacing`` and ``period`` are traced values inside the front doors' compiled programs
+    (a new cell size reuses the compiled program); ``window``, ``n_terms`` and the period cell
+    counts ``n_cells`` are static.
+    """
+
+    spacing: float | jax.Array
+    period: tuple | None
+    window: int = eqx.field(static=True)
+    n_terms: int | None = eqx.field(static=True)
+    n_cells: tuple | None = eqx.field(static=True)
+
+    def __init__(self, spacing, window, period=None, n_terms=None):
+        dx = _concrete_float("spacing", spacing)
+        if isinstance(window, (bool, np.bool_)) or not isinstance(window, (int, np.integer)) or window < 2:
+            raise ValueError(f"FixedGrid.window must be an integer number of cells >= 2; got {window!r}")
+        if n_terms is not None and (isinstance(n_terms, bool) or not isinstance(n_terms, (int, np.integer))
+                                    or n_terms < 1):
+            raise ValueError(f"FixedGrid.n_terms must be a positive integer or None; got {n_terms!r}")
+        if period is None:
+            self.period, self.n_cells = None, None
+            if n_terms is not None:
+                raise ValueError("FixedGrid.n_terms is the cut-off of a periodic compliance: give a period")
+        else:
+            if isinstance(period, (tuple, list)):
+                if len(period) != 2:
+                    raise ValueError(f"FixedGrid.period must be a number or a pair (Lx, Ly); got {period!r}")
+                Lx, Ly = (_concrete_float("period", p) for p in period)
+            else:
+                Lx = Ly = _concrete_float("period", period)
+            Nx = _even_cells(Lx, dx)
+            dx = Lx / Nx  # a whole number of cells per period
+            Ny = _even_cells(Ly, dx)
+            self.period, self.n_cells = (Lx, Ny * dx), (Nx, Ny)
+            if window > min(Nx, Ny):
+                raise ValueError(f"FixedGrid: the window ({window} cells) is wider than the period "
+                                 f"({min(Nx, Ny)} cells)")
+        self.spacing = dx
+        self.window = int(window)
+        self.n_terms = None if n_terms is None else int(n_terms)
+
+    @property
+    def periodic(self) -> bool:
+        return self.period is not None
+
+    def terms(self) -> int:
+        """The 3D Fourier cut-off: ``n_terms`` or the larger period cell count."""
+        return max(self.n_cells) if self.n_terms is None else self.n_terms
+
+    def dynamic(self) -> "FixedGrid":
+        """The grid with ``spacing`` and ``period`` as float64 arrays (traced by ``jit``)."""
+        return jax.tree_util.tree_map(lambda v: jnp.asarray(v, jnp.float64), self)
+
+    def period_ok(self, contact_size, memory_length, ndim):
+        """Whether the period exceeds ``PERIOD_FACTOR max(contact_size, memory_length)`` along x
+        (and ``PERIOD_FACTOR contact_size`` along y in 3D); True on an infinite layer."""
+        if self.period is None:
+            return jnp.asarray(True)
+        Lx, Ly = self.period
+        ok = Lx >= PERIOD_FACTOR * jnp.maximum(contact_size, memory_length)
+        return ok & (Ly >= PERIOD_FACTOR * contact_size) if ndim == 2 else ok
+
+
+class AutoGrid(eqx.Module):
+    """A grid sized from the inputs (concrete values only), by the rules of the module docstring.
+
+    Args:
+        cells_per_radius: cells per estimated contact radius (sphere) or half-width
+            (cylinder, slices); ``None``: the model's rule (sphere 12; line 25..128 by speed).
+        window_radii: half-width of the pressure window in estimated contact radii (``None``:
+            1.25 for spheres, 3 for lines).
+        period: ``"auto"`` (a periodic surface long enough for the layer to recover,
+            ``>= period_factor max(contact size, V t_max)``), a period [m] (or ``(Lx, Ly)``), or
+            ``None`` (an infinite layer).
+        period_factor: see ``period="auto"``.
+        n_terms: 3D Fourier cut-off (``None``: the larger period cell count).
+
+    Under ``jit``/``vmap``/``grad`` the inputs are traced and an AutoGrid cannot be sized: call
+    ``method.resolve(material, layer, radius=..., loads=..., speeds=..., geometry=...)`` first
+    (or give a :class:`FixedGrid`).
+    """
+
+    cells_per_radius: int | None = eqx.field(static=True, default=None)
+    window_radii: float | None = eqx.field(static=True, default=None)
+    period: float | tuple | str | None = eqx.field(static=True, default="auto")
+    period_factor: float = eqx.field(static=True, default=PERIOD_FACTOR)
+    n_terms: int | None = eqx.field(static=True, default=None)
+
+    def __check_init__(self):
+        if self.cells_per_radius is not None and (not isinstance(self.cells_per_radius, (int, np.integer))
+                                                  or self.cells_per_radius < 1):
+            raise ValueError(f"AutoGrid.cells_per_radius must be a positive integer; got {self.cells_per_radius!r}")
+        if self.window_radii is not None and not (isinstance(self.window_radii, (int, float))
+                                                  and self.window_radii > 0):
+            raise ValueError(f"AutoGrid.window_radii must be a positive number; got {self.window_radii!r}")
+        if isinstance(self.period, str) and self.period != "auto":
+            raise ValueError(f"AutoGrid.period must be 'auto', a length in m, a pair, or None; got {self.period!r}")
+        if not (self.period_factor > 0):
+            raise ValueError("AutoGrid.period_factor must be positive")
+
+    # ---- the rules ------------------------------------------------------------------------------
+
+    def sphere(self, material, layer, radius, loads, speeds) -> FixedGrid:
+        """The :class:`FixedGrid` of the full 3D model covering every load and speed given
+        (concrete arrays)."""
+        loads, speeds = _envelope(loads, speeds)
+        r = _sizes(material, layer, radius, loads, "sphere")
+        H = float(np.asarray(layer.H))
+        cpr = self.cells_per_radius
+        if cpr is None:
+            cpr = SPHERE_CELLS_PER_RADIUS
+            if math.isfinite(H):
+                cpr = max(cpr, int(math.ceil(2.0 * r.max() / H)))
+        dx = float(r.min()) / cpr
+        window = 2 * int(math.ceil((self.window_radii or SPHERE_WINDOW_RADII) * r.max() / dx)) + 1
+        memory = float(speeds.max()) * _longest_time(material)
+        period = self.period
+        if isinstance(period, str):
+            Nx = min(_next_pow2(max(self.period_factor * max(r.max(), memory) / dx, window)), MAX_SPHERE_CELLS)
+            Ny = min(_next_pow2(max(self.period_factor * r.max() / dx, window)), MAX_SPHERE_CELLS)
+            period = (Nx * dx, Ny * dx)
+        return FixedGrid(dx, window, period=period, n_terms=self.n_terms)
+
+    def line(self, material, layer, radius, loads, speeds) -> FixedGrid:
+        """The :class:`FixedGrid` of a plane-strain line (the full 2D cylinder; the slices of
+        PD/PP/SP with their middle-slice loads per unit length) covering every load per unit
+        length and speed given (concrete arrays)."""
+        loads, speeds = _envelope(loads, speeds)
+        a = _sizes(material, layer, radius, loads, "cylinder")
+        G0 = float(np.asarray(material.relaxed_modulus()))
+        a0 = np.sqrt(loads * float(radius) / (np.pi * G0))  # relaxed Hertz half-width (E* = 4 G0)
+        H = float(np.asarray(layer.H))
+        t_max = _longest_time(material)
+        cpr = self.cells_per_radius
+        if cpr is None:
+            zeta = np.outer(speeds * t_max, 1.0 / a0)  # V tau / a0 over the envelope
+            cpr = max(line_cells_per_radius(float(z)) for z in np.ravel(zeta))
+            if math.isfinite(H):
+                cpr = max(cpr, int(math.ceil(2.0 * a.max() / H)))
+        dx = float(a.min()) / cpr
+        window = 2 * int(math.ceil((self.window_radii or LINE_WINDOW_RADII) * a.max() / dx))
+        period = self.period
+        if isinstance(period, str):
+            L_need = self.period_factor * max(4.0 * a.max(), float(speeds.max()) * t_max)
+            period = min(_next_pow2(max(L_need / dx, 2 * window)), MAX_LINE_CELLS) * dx
+        return FixedGrid(dx, window, period=period)
+
+
+def line_cells_per_radius(zeta: float) -> int:
+    """Cells per half-width giving <= 1 % error of the 2D moment form against the exact
+    half-space cylinder (measured, f = 1): 25 cells err <= 0.5 % for 0.03 <= V tau/a0 <= 30 (-2 %
+    at 0.01, +1.5 % at 100); 128 cells: -0.7 % at 1e-3; 50 cells: -0.1 % at 100, +0.65 % at
+    1000; 100 cells: +0.2 % at 1000."""
+    if zeta < 0.03:
+        return 128
+    if zeta <= 30.0:
+        return 25
+    if zeta <= 300.0:
+        return 50
+    return 100
+
+
+def _next_pow2(n):
+    return 1 << max(1, int(math.ceil(math.log2(max(n, 2)))))
+
+
+def _envelope(loads, speeds):
+    loads = np.atleast_1d(np.asarray(loads, dtype=float)).ravel()
+    speeds = np.atleast_1d(np.asarray(speeds, dtype=float)).ravel()
+    if loads.size == 0 or speeds.size == 0:
+        raise ValueError("resolve needs at least one load and one speed")
+    if not (np.all(np.isfinite(loads)) and np.all(loads > 0)):
+        raise ValueError(f"load P must be positive and finite; got {loads}")
+    if not (np.all(np.isfinite(speeds)) and np.all(speeds >= 0)):
+        raise ValueError(f"speed V must be >= 0 and finite; got {speeds}")
+    return loads, speeds
+
+
+def _sizes(material, layer, radius, loads, geometry):
+    """Estimated contact sizes [m] of every load (host NumPy)."""
+    r = np.asarray(jax.vmap(lambda P: estimate_contact_size(material, layer, radius, P, geometry))(
+        jnp.asarray(loads)))
+    if not np.all(np.isfinite(r) & (r > 0)):
+        raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
+    return r
+
+
+def _longest_time(material) -> float:
+    t = float(np.asarray(material.longest_time()))
+    if not (math.isfinite(t) and t >= 0):
+        raise ValueError(f"cannot size a grid: the material's longest retardation time is {t}")
+    return t
+
+
+def union(grids) -> FixedGrid:
+    """The finest :class:`FixedGrid` that covers each of ``grids``: the smallest cell, a window
+    as wide (in metres) as the widest, the longest period (``None`` if every grid is infinite),
+    the largest Fourier cut-off. Used to resolve one method for sweeps over several materials,
+    layers or radii."""
+    grids = list(grids)
+    if not grids:
+        raise ValueError("union of no grids")
+    periodic = [g.periodic for g in grids]
+    if any(periodic) and not all(periodic):
+        raise ValueError("cannot merge periodic and infinite-layer grids")
+    dx = min(float(g.spacing) for g in grids)
+    width = max(float(g.spacing) * g.window for g in grids)
+    window = int(math.ceil(width / dx - 1e-9))
+    if all(g.window % 2 for g in grids):
+        window += 1 - window % 2  # keep an odd window odd (a cell centred under the sphere)
+    elif not any(g.window % 2 for g in grids):
+        window += window % 2
+    period = None
+    if all(periodic):
+        period = (max(float(g.period[0]) for g in grids), max(float(g.period[1]) for g in grids))
+    terms = [g.n_terms for g in grids if g.n_terms is not None]
+    return FixedGrid(dx, window, period=period, n_terms=max(terms) if terms else None)

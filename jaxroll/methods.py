@@ -1,0 +1,297 @@
+"""Methods: the configuration objects of the rolling-resistance models.
+
+A method is an equinox module whose configuration is static and hashable (diffrax's solver
+objects are the model): it is the compilation cache key of the front doors
+:func:`jaxroll.rolling_resistance` and :func:`jaxroll.rolling_resistance_grid`, so a second call
+with new values of the same shapes compiles nothing.
+
+* :class:`Direct`: the direct Fourier-series method of [ZG] sec. 4 (stationary pressure;
+  :mod:`jaxroll.direct`), spheres and cylinders. No grid (quadrature or the periodic series),
+  except ``pressure="elastic"`` (the static elastic pressure solved on the full 3D model's grid).
+* :class:`Full`: the full rolling-contact model, 2D (cylinder, :mod:`jaxroll.cylinder`) or 3D
+  (sphere, :mod:`jaxroll.sphere3d`), picked by the ``geometry`` argument of the front door.
+* :class:`Slices`: the sphere from 2D cylinder slices, algorithms PD, PP, SP of [ZG] sec. 3
+  (:mod:`jaxroll.slices`).
+
+The strings ``"direct"``, ``"full"``, ``"PD"``, ``"PP"``, ``"SP"`` are shortcuts for the default
+objects. Grids (:class:`jaxroll.grids.AutoGrid`, :class:`jaxroll.grids.FixedGrid`) are explicit:
+``method.resolve(material, layer, radius=..., loads=..., speeds=..., geometry=...)`` returns the
+method with the :class:`~jaxroll.grids.FixedGrid` that covers the whole envelope, which is what
+``jit``/``vmap``/``grad`` need (an :class:`~jaxroll.grids.AutoGrid` cannot be sized from traced
+values).
+"""
+
+from __future__ import annotations
+
+import abc
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import cylinder, direct, slices, sphere3d
+from .contact_size import check_geometry, estimate_contact_size
+from .grids import AutoGrid, FixedGrid
+from .result import RollingResult
+
+__all__ = ["AbstractMethod", "Direct", "Full", "Slices", "as_method", "METHOD_NAMES"]
+
+#: The full model of each geometry: a module with ``kernel_builder``, ``solve`` and ``result``.
+_FULL_MODELS = {"sphere": sphere3d, "cylinder": cylinder}
+
+
+class AbstractMethod(eqx.Module):
+    """A rolling-resistance method: static configuration, and the model evaluations the front
+    doors call inside their compiled programs."""
+
+    geometries = ("sphere", "cylinder")
+
+    @abc.abstractmethod
+    def evaluate(self, material, layer, R, P, V, geometry) -> RollingResult:
+        """``R_r`` at one point (checked float64 scalars ``R`` [m], ``P`` [N or N/m], ``V``
+        [m/s]) with a resolved grid."""
+
+    def evaluate_grid(self, material, layer, R, loads, speeds, geometry) -> RollingResult:
+        """``R_r`` on ``speeds x loads`` (fields ``(n_speeds, n_loads)``); default: every
+        point by :meth:`evaluate` (``lax.map`` over speeds, ``vmap`` over loads)."""
+        return jax.lax.map(lambda V: jax.vmap(lambda P: self.evaluate(material, layer, R, P, V, geometry))(loads),
+                           speeds)
+
+    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere") -> "AbstractMethod":
+        """This method with every :class:`~jaxroll.grids.AutoGrid` replaced by the
+        :class:`~jaxroll.grids.FixedGrid` covering all ``loads`` [N or N/m] and ``speeds``
+        [m/s] (concrete values): the method to pass under ``jit``/``vmap``/``grad``."""
+        self.check_geometry(geometry)
+        return self
+
+    def needs_resolution(self, geometry) -> bool:
+        """Whether an :class:`~jaxroll.grids.AutoGrid` must be sized from concrete inputs."""
+        return False
+
+    def check_geometry(self, geometry) -> None:
+        check_geometry(geometry)
+        if geometry not in self.geometries:
+            raise ValueError(f"{type(self).__name__} computes geometry {self.geometries}; got {geometry!r}")
+
+    def dynamic(self) -> "AbstractMethod":
+        """The method with the lengths of its grids as float64 arrays, so that the compiled
+        program takes them as values (a new cell size or period does not recompile)."""
+        return jax.tree_util.tree_map(lambda v: jnp.asarray(v, jnp.float64) if isinstance(v, float) else v, self)
+
+
+def _check_grid(grid, name):
+    if not isinstance(grid, (AutoGrid, FixedGrid)):
+        raise ValueError(f"{name}.grid must be a jr.AutoGrid or a jr.FixedGrid; got {grid!r}")
+
+
+def _check_choice(name, value, choices):
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}; got {value!r}")
+
+
+class Direct(AbstractMethod):
+    """The direct Fourier-series method of [ZG] sec. 4: a stationary pressure (Hertz/Jaffar on
+    thick layers, the thin-layer shapes, or the static elastic pressure on a grid) dissipating in
+    the rolling compliance ([ZG] eqs. 26, 29, 37, 42, 47). Cheap (milliseconds per point) but the
+    stationary-pressure assumption is low by ~20 % near and above the R_r peak (see the README's
+    accuracy table): for screening.
+
+    Args:
+        pressure: ``"auto"`` (thick model where Jaffar's law has a solution, else thin),
+            ``"thick"``, ``"thin"``, ``"thin-compressible"``, or ``"elastic"`` (spheres: the
+            static elastic contact pressure solved on ``grid`` by the 3D contact solver, valid
+            for any thickness, [ZG] footnote 4's open case).
+        modulus: modulus of the contact radius: ``"static"`` (``G'(0)``, reproduces the paper's
+            radii), ``"glassy"``, ``"dynamic"`` (``G'`` at ``V / r_static``) or a value [Pa].
+        rtol: target relative accuracy of the aperiodic quadrature.
+        period: ``None`` (default): the aperiodic limit, a single roller on an infinite layer.
+            A period [m] (scalar, or ``(Lx, Ly)`` for spheres) selects [ZG]'s periodic series of
+            ``n_terms`` terms per direction.
+        n_terms: terms per direction of the periodic series.
+        grid: the grid of ``pressure="elastic"`` (ignored otherwise).
+    """
+
+    pressure: str = eqx.field(static=True, default="auto")
+    modulus: str | float = eqx.field(static=True, default="static")
+    rtol: float = eqx.field(static=True, default=1e-4)
+    period: float | tuple | None = eqx.field(static=True, default=None)
+    n_terms: int | None = eqx.field(static=True, default=None)
+    grid: AutoGrid | FixedGrid = AutoGrid()
+
+    def __check_init__(self):
+        _check_choice("Direct.pressure", self.pressure, ("auto", "thick", "thin", "thin-compressible", "elastic"))
+        if not (isinstance(self.rtol, float) and 0 < self.rtol < 1):
+            raise ValueError(f"Direct.rtol must be a number in (0, 1); got {self.rtol!r}")
+        if (self.period is None) != (self.n_terms is None):
+            raise ValueError("Direct: the periodic series needs both period and n_terms (or neither, for the "
+                             "aperiodic limit)")
+        _check_grid(self.grid, "Direct")
+
+    def check_geometry(self, geometry):
+        super().check_geometry(geometry)
+        if self.pressure == "elastic" and geometry != "sphere":
+            raise ValueError("Direct(pressure='elastic') (static elastic contact pressure from the 3D contact "
+                             "solver) is implemented for geometry='sphere'")
+
+    def needs_resolution(self, geometry):
+        return self.pressure == "elastic" and isinstance(self.grid, AutoGrid)
+
+    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
+        self.check_geometry(geometry)
+        if not self.needs_resolution(geometry):
+            return self
+        return eqx.tree_at(lambda m: m.grid, self, self.grid.sphere(material, layer, radius, loads, speeds))
+
+    def evaluate(self, material, layer, R, P, V, geometry):
+        if self.pressure == "elastic":
+            return sphere3d.direct_elastic_rolling_resistance(material, layer, R, P, V, self.grid)
+        return direct.direct_rolling_resistance(material, layer, radius=R, load=P, speed=V, geometry=geometry,
+                                                pressure=self.pressure, period=self.period, n_terms=self.n_terms,
+                                                rtol=self.rtol, modulus=self.modulus)
+
+
+class _GridMethod(AbstractMethod):
+    """A method whose every evaluation runs on a grid (``self.grid``)."""
+
+    def needs_resolution(self, geometry):
+        return isinstance(self.grid, AutoGrid)
+
+
+class Full(_GridMethod):
+    """The full rolling-contact model: the pressure and contact set are solved (primal-dual active
+    set, FFT-applied compliance, implicit gradients). ``geometry="cylinder"``: the 2D plane-strain
+    model (Qiu type); ``geometry="sphere"``: the 3D model, the reference of [ZG] sec. 2.
+
+    Args:
+        grid: :class:`~jaxroll.grids.AutoGrid` (default; sized from the inputs) or
+            :class:`~jaxroll.grids.FixedGrid`.
+        edge_smoothing: ``None`` (exact discrete contact) or ``kappa > 0``: the smoothed contact
+            edge (log-sum-exp complementarity with the gap scale ``kappa a^{3/2} r^{1/2}/R``),
+            which makes ``R_r`` smooth in every parameter for least-squares fits, at a bias that
+            vanishes with the cell size (0.25 on the paper's grid, 0.5 on coarser ones).
+        tol: contact solver tolerance on the scaled residual.
+        max_steps: active-set (and smoothing Newton) iteration limit.
+    """
+
+    grid: AutoGrid | FixedGrid = AutoGrid()
+    edge_smoothing: float | None = eqx.field(static=True, default=None)
+    tol: float = eqx.field(static=True, default=1e-10)
+    max_steps: int = eqx.field(static=True, default=50)
+
+    def __check_init__(self):
+        _check_grid(self.grid, "Full")
+        if self.edge_smoothing is not None and not (isinstance(self.edge_smoothing, (int, float))
+                                                    and self.edge_smoothing > 0):
+            raise ValueError(f"Full.edge_smoothing must be None or a positive number; got {self.edge_smoothing!r}")
+        if not (isinstance(self.tol, float) and 0 < self.tol < 1):
+            raise ValueError(f"Full.tol must be a number in (0, 1); got {self.tol!r}")
+        if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)) or self.max_steps < 1:
+            raise ValueError(f"Full.max_steps must be a positive integer; got {self.max_steps!r}")
+
+    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
+        self.check_geometry(geometry)
+        if not self.needs_resolution(geometry):
+            return self
+        rule = self.grid.sphere if geometry == "sphere" else self.grid.line
+        return eqx.tree_at(lambda m: m.grid, self, rule(material, layer, radius, loads, speeds))
+
+    def _solve(self, model, kernel, R, P, size, init=None):
+        return model.solve(kernel, self.grid, R, P, size, tol=self.tol, max_steps=self.max_steps,
+                           edge_smoothing=self.edge_smoothing, init=init)
+
+    def evaluate(self, material, layer, R, P, V, geometry):
+        """``R_r`` [N, or N/m] from the full model of ``geometry``: the contact solved on the grid's
+        window with the model's kernel (:mod:`jaxroll.sphere3d` / :mod:`jaxroll.cylinder`),
+        ``R_r = (1/R) sum p x dA`` of the solved pressure."""
+        model = _FULL_MODELS[geometry]
+        size = estimate_contact_size(material, layer, R, P, geometry)
+        s = self._solve(model, model.kernel_builder(material, layer, self.grid)(V), R, P, size)
+        return model.result(s, self.grid, layer, V, material)
+
+    def evaluate_grid(self, material, layer, R, loads, speeds, geometry):
+        """The table ``speeds x loads``: the speed-independent layer work once, the kernel once per
+        speed (``lax.map`` over speeds: memory bounded), the loads of a speed in a ``lax.scan`` in
+        the given order, each starting from the previous load's contact set (give loads sorted).
+        Each point equals :meth:`evaluate` to the solver tolerance."""
+        model = _FULL_MODELS[geometry]
+        build = model.kernel_builder(material, layer, self.grid)
+        sizes = jax.vmap(lambda P: estimate_contact_size(material, layer, R, P, geometry))(loads)
+        ndim = 2 if geometry == "sphere" else 1
+
+        def one_speed(V):
+            kernel = build(V)
+
+            def step(prev, args):
+                s = self._solve(model, kernel, R, *args, init=prev)
+                return s.contact.contact, model.result(s, self.grid, layer, V, material)
+
+            return jax.lax.scan(step, jnp.zeros((self.grid.window,) * ndim, bool), (loads, sizes))[1]
+
+        return jax.lax.map(one_speed, speeds)
+
+
+class Slices(_GridMethod):
+    """A rigid sphere from 2D cylinder slices ([ZG] sec. 3): ``"PD"`` (penetration consistency,
+    eq. 9), ``"PP"`` (load equilibrium, eq. 10) or ``"SP"`` (both, eq. 11, the most accurate on
+    thin and intermediate layers).
+
+    Args:
+        algorithm: ``"PD"``, ``"PP"`` or ``"SP"``.
+        n_slices: odd number of slices across the contact (paper: 21).
+        grid: the 1D grid shared by the slices (sized for the middle slice).
+        tol, max_steps: contact tolerance (GMRES only) and active-set iteration limit.
+        root_tol, root_max_steps: tolerance on ``log d_o`` and iteration limit of the root finds.
+        linear_solver: ``"interval"`` (Levinson tables, fastest), ``"dense"`` or ``"gmres"``.
+    """
+
+    geometries = ("sphere",)
+    algorithm: str = eqx.field(static=True, default="SP")
+    n_slices: int = eqx.field(static=True, default=21)
+    grid: AutoGrid | FixedGrid = AutoGrid()
+    tol: float = eqx.field(static=True, default=1e-10)
+    max_steps: int = eqx.field(static=True, default=60)
+    root_tol: float = eqx.field(static=True, default=1e-10)
+    root_max_steps: int = eqx.field(static=True, default=40)
+    linear_solver: str = eqx.field(static=True, default="interval")
+
+    def __check_init__(self):
+        slices.check_options(self.algorithm, self.n_slices, self.linear_solver)
+        _check_grid(self.grid, "Slices")
+
+    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
+        self.check_geometry(geometry)
+        if not self.needs_resolution(geometry):
+            return self
+        loads = np.atleast_1d(np.asarray(loads, dtype=float))
+        middle = np.asarray(jax.vmap(lambda P: slices.middle_slice_load(material, layer, radius, P))(
+            jnp.asarray(loads)))
+        return eqx.tree_at(lambda m: m.grid, self, self.grid.line(material, layer, radius, middle, speeds))
+
+    def _options(self):
+        return dict(algorithm=self.algorithm, n_slices=self.n_slices, tol=self.tol, max_steps=self.max_steps,
+                    root_tol=self.root_tol, root_max_steps=self.root_max_steps, linear_solver=self.linear_solver)
+
+    def evaluate(self, material, layer, R, P, V, geometry):
+        return slices.rolling_resistance(material, layer, R, P, V, self.grid, **self._options())
+
+    def evaluate_grid(self, material, layer, R, loads, speeds, geometry):
+        return slices.rolling_resistance_grid(material, layer, R, loads, speeds, self.grid, **self._options())
+
+
+METHOD_NAMES = ("direct", "full", "PD", "PP", "SP")
+
+
+def as_method(method) -> AbstractMethod:
+    """A method object from a method or one of the shortcuts ``"direct"``, ``"full"``, ``"PD"``,
+    ``"PP"``, ``"SP"``."""
+    if isinstance(method, AbstractMethod):
+        return method
+    if method == "direct":
+        return Direct()
+    if method == "full":
+        return Full()
+    if method in slices.ALGORITHMS:
+        return Slices(algorithm=method)
+    raise ValueError(f"unknown method {method!r}; give jr.Direct(...), jr.Full(...), jr.Slices(...) or one of "
+                     f"{METHOD_NAMES}")
