@@ -1,24 +1,29 @@
-"""Benchmark of the full 2D rolling cylinder (jaxroll.cylinder) against a dense NumPy baseline.
+"""Benchmark of the full 2D rolling cylinder (``jr.Full``, geometry "cylinder") against a dense NumPy baseline.
 
 Run:  python benchmarks/bench_cylinder.py [--quick]
 
-Reports (CPU, float64): compile time apart from run time, medians of repeated runs,
-* one solve at the default resolution (SLS G0 = 3 MPa, tau = 0.25 s, f = 1, R = 2 cm,
-  P' = 5 kN/m, H = 5 mm, V tau/a0 = 1), error against the exact half-space solution for a
-  half-space solve;
-* the 23 x 15 reference sweep (23 log-spaced speeds 1e-4..1 m/s, 15 loads 1e3..1e4 N/m) with
-  lax.map, static resolution (25 cells per half-width, 2^17 cells per period);
-* value_and_grad vs value (target <= 3x);
-  (the layer is built inside jit; its literal density rho = 0 stays a trace-time constant, so
-  jaxroll.cylinder.compliance_function takes the quasi-static factorised path);
-* a plain NumPy/SciPy baseline on the same grid: the dense window compliance matrix built from
+Reports (CPU, float64): compile time apart from run time (ahead of time), medians of repeated
+runs, everything through ``jr.rolling_resistance`` / ``jr.rolling_resistance_grid``:
+* one point with the automatic grid (``jr.Full()``, half-space, V tau/a0 = 1): error against the
+  exact half-space solution (``jr.exact_cylinder_halfspace``);
+* one point on an explicit grid (SLS G0 = 3 MPa, tau = 0.25 s, f = 1, R = 2 cm, P' = 5 kN/m,
+  H = 5 mm, V tau/a0 = 1): ``jr.FixedGrid(a/25, 150, period=2**17 a/25)`` (25 cells per
+  estimated half-width ``a``, 2^17 cells per period, as the paper-era benchmark), and
+  ``value_and_grad`` with respect to (G0, tau, f, H, R, P', V) vs value (target <= 3x);
+* the 23 x 15 reference table (23 log-spaced speeds 1e-4..1 m/s, 15 loads 1e3..1e4 N/m) through
+  ``jr.rolling_resistance_grid`` on one grid covering the envelope (25 cells per smallest
+  half-width, window 3 largest half-widths each side, 2^17 cells per period); its gradient
+  (``jax.grad`` of the sum with respect to G0, tau, f, H) on a subset;
+* a plain NumPy/SciPy baseline on the same grids: the dense window compliance matrix built from
   the same exact kernel (NumPy FFT) and a dense primal-dual active-set solver
   (numpy.linalg.solve), and the speed-up ratio.
+``--quick``: the table on a 5 x 3 subset.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import time
 
@@ -27,27 +32,35 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxroll as jr
-from jaxroll import cylinder as cy
-from jaxroll import reference as ref
-
-from _timing import timed
+from _timing import aot, summary, timed
 
 G0, TAU, F, R, H = 3e6, 0.25, 1.0, 0.02, 5e-3
-N_SWEEP, CPR = 2**17, 25
+N_CELLS, CPR = 2**17, 25
+MAT = jr.StandardLinearSolid(G0, TAU, F)
 
 
-def rr(theta, V, n_cells=N_SWEEP):
-    G, tau, f, H_, radius, load = theta
-    s = cy.solve_cylinder(jr.StandardLinearSolid(G, tau, f), jr.Layer(H_), radius, load, V,
-                          n_cells=n_cells, cells_per_radius=CPR, throw=False)
-    return s.resistance, (s.contact.status, s.contact.iterations)
+def line_grid(loads, H_=H):
+    """The explicit grid of this benchmark: 25 cells per smallest estimated half-width, a window of
+    3 largest half-widths each side, 2^17 cells per period."""
+    a = np.asarray([float(jr.estimate_contact_size(MAT, jr.Layer(H_), R, float(P), "cylinder")) for P in loads])
+    dx = a.min() / CPR
+    return jr.FixedGrid(dx, 2 * math.ceil(3.0 * a.max() / dx), period=N_CELLS * dx), a
+
+
+def rr(method):
+    def fn(theta, V):
+        G, tau, f, H_, radius, load = theta
+        return jr.rolling_resistance(jr.StandardLinearSolid(G, tau, f), jr.Layer(H_), radius=radius, load=load,
+                                     speed=V, geometry="cylinder", method=method, throw=False).value
+
+    return fn
 
 
 # ------------------------------------------------------------------------------ NumPy baseline
 
 
 def numpy_T(q, V, G=G0, tau=TAU, f=F, H_=H):
-    """Quasi-static incompressible layer T = F(qH)/(2 G_m |q|) (DESIGN section 2), NumPy."""
+    """Quasi-static incompressible layer T = F(qH)/(2 G_m |q|) (docs/design.md section 2), NumPy."""
     qa = np.abs(q)
     w = q * V * tau
     Gm = np.conj(G * (1 + 1j * w) / (1 + 1j * w / (1 + f)))
@@ -58,15 +71,10 @@ def numpy_T(q, V, G=G0, tau=TAU, f=F, H_=H):
     return T
 
 
-def numpy_solve(V, load, n_cells=N_SWEEP, cpr=CPR, window=3.0, images=4):
-    """Dense baseline on the same grid: exact alias-summed kernel (plain image sum, 2M images),
+def numpy_solve(V, load, grid, a, images=4):
+    """Dense baseline on the grid ``grid``: exact alias-summed kernel (plain image sum, 2M images),
     dense Toeplitz window matrix, primal-dual active set with numpy.linalg.solve."""
-    a0 = np.sqrt(load * R / (np.pi * G0))
-    a_thin = (15 * load * R * H**3 / (2 * G0)) ** 0.2
-    a = min(a0, a_thin)
-    dx = a / cpr
-    N = n_cells
-    W = 2 * int(np.ceil(window * cpr))
+    dx, N, W = float(grid.spacing), grid.n_cells[0], grid.window
     z = np.arange(N // 2 + 1) / N
     w = z[:, None] + np.arange(-images, images)[None, :]
     q = 2 * np.pi * w / dx
@@ -97,29 +105,30 @@ def numpy_solve(V, load, n_cells=N_SWEEP, cpr=CPR, window=3.0, images=4):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--quick", action="store_true", help="sweep on a 5 x 3 subset")
+    ap.add_argument("--quick", action="store_true", help="table on a 5 x 3 subset")
     args = ap.parse_args()
-    print(f"jax {jax.__version__}, devices {jax.devices()}, float64 {jax.config.read('jax_enable_x64')}")
+    cmd = "bench_cylinder.py" + (" --quick" if args.quick else "")
+    print(f"jax {jax.__version__}, devices {jax.devices()}, float64 {jax.config.read('jax_enable_x64')} "
+          f"(2-core machine shared with other jobs: medians of repeated runs)")
 
-    # ---- one solve, default (automatic) resolution ----
+    # ---- one point, automatic grid, half-space vs exact ----
     P1, zeta = 5e3, 1.0
     a0 = np.sqrt(P1 * R / (np.pi * G0))
     V1 = zeta * a0 / TAU
-    mat = jr.StandardLinearSolid(G0, TAU, F)
-    t = time.perf_counter()
-    res = cy.rolling_resistance_full(mat, jr.Layer(jnp.inf), R, P1, V1)
-    jax.block_until_ready(res.value)
-    t_eager = time.perf_counter() - t
-    ex = float(ref.exact_cylinder_halfspace(mat, R, P1, V1).rolling_resistance)
-    print(f"\none solve (half-space, V tau/a0 = 1, automatic resolution, eager incl. compile): "
-          f"{t_eager:.2f} s, R_r = {float(res.value):.5g} N/m, exact {ex:.5g}, "
+    half = jr.Layer(jnp.inf)
+    first, run, res = timed(lambda: jr.rolling_resistance(MAT, half, radius=R, load=P1, speed=V1,
+                                                          geometry="cylinder", method=jr.Full()), repeat=3)
+    ex = float(jr.exact_cylinder_halfspace(MAT, R, P1, V1).rolling_resistance)
+    print(f"\none point (half-space, V tau/a0 = 1, jr.Full() automatic grid, eager): first call {first:.2f} s, "
+          f"warm {1e3 * run:.1f} ms, R_r = {float(res.value):.5g} N/m, exact {ex:.5g}, "
           f"err {float(res.value) / ex - 1:+.2e}, iterations {int(res.iterations)}")
 
+    # ---- one point, explicit grid ----
+    grid1, a1 = line_grid([P1])
+    method1 = jr.Full(grid=grid1)
     theta = jnp.asarray([G0, TAU, F, H, R, P1])
-    f_val = jax.jit(lambda th, v: rr(th, v)[0])
-    f_vg = jax.jit(jax.value_and_grad(lambda th, v: rr(th, v)[0], argnums=(0, 1)))
-    c_val, t_val, v = timed(f_val, theta, V1)
-    c_vg, t_vg, _ = timed(f_vg, theta, V1)
+    c_val, t_val, v, f_val = aot(rr(method1), theta, V1, repeat=7)
+    c_vg, t_vg, _, f_vg = aot(jax.value_and_grad(rr(method1), argnums=(0, 1)), theta, V1, repeat=7)
     pairs = []  # value and value_and_grad interleaved (shared machine), median of the ratios
     for _ in range(7):
         t = time.perf_counter()
@@ -128,65 +137,70 @@ def main():
         t = time.perf_counter()
         jax.block_until_ready(f_vg(theta, V1))
         pairs.append((time.perf_counter() - t) / t1)
-    print(f"one solve, H = 5 mm, jit, N = {N_SWEEP}, 25 cells/half-width: compile+first {c_val:.2f} s, "
+    print(f"one point, H = 5 mm, N = {N_CELLS}, window {grid1.window}, 25 cells/half-width: compile {c_val:.2f} s, "
           f"run {1e3 * t_val:.1f} ms (R_r = {float(v):.5g} N/m)")
-    print(f"value_and_grad (7 gradients): compile+first {c_vg:.2f} s, run {1e3 * t_vg:.1f} ms, "
+    print(f"value_and_grad (7 gradients): compile {c_vg:.2f} s, run {1e3 * t_vg:.1f} ms, "
           f"ratio to value {t_vg / t_val:.2f}x (interleaved pairs: median {statistics.median(pairs):.2f}x)")
 
-    # interleaved runs (the machine is shared: the load changes between blocks of runs), the
-    # ratio is the median of the per-pair ratios
     t_np_runs, t_jx_runs = [], []
     for _ in range(7):
         t = time.perf_counter()
-        nb, nb_it = numpy_solve(V1, P1)
+        nb, nb_it = numpy_solve(V1, P1, grid1, a1[0])
         t_np_runs.append(time.perf_counter() - t)
         t = time.perf_counter()
         jax.block_until_ready(f_val(theta, V1))
         t_jx_runs.append(time.perf_counter() - t)
     t_np1 = statistics.median(t_np_runs)
-    ratio = statistics.median([a / b for a, b in zip(t_np_runs, t_jx_runs)])
+    ratio1 = statistics.median([a / b for a, b in zip(t_np_runs, t_jx_runs)])
     print(f"NumPy dense baseline, same grid (interleaved with jaxroll, medians of 7): {1e3 * t_np1:.1f} ms vs "
           f"{1e3 * statistics.median(t_jx_runs):.1f} ms, R_r = {nb:.5g} N/m (rel. diff to jaxroll "
-          f"{nb / float(v) - 1:+.1e}), {nb_it} iterations; ratio {ratio:.2f}x")
+          f"{nb / float(v) - 1:+.1e}), {nb_it} iterations; ratio {ratio1:.2f}x")
+    summary(cmd + " (one point, 2^17 cells)", t_val, c_val, f"NumPy dense active set {1e3 * t_np1:.1f} ms",
+            f"{ratio1:.1f}x", "H = 5 mm, P' = 5 kN/m, V tau/a0 = 1")
+    summary(cmd + " (value_and_grad / value)", t_vg, c_vg, f"value {1e3 * t_val:.1f} ms",
+            f"{statistics.median(pairs):.2f}x (target 3x)", "7 gradients")
 
-    # ---- reference sweep 23 x 15 ----
+    # ---- reference table 23 x 15 ----
     speeds = np.logspace(-4, 0, 23)
     loads = np.linspace(1e3, 1e4, 15)
     if args.quick:
         speeds, loads = speeds[::5], loads[::7]
-    VV, PP = np.meshgrid(speeds, loads, indexing="ij")
-    thetas = jnp.stack([jnp.asarray([G0, TAU, F, H, R, p]) for p in PP.ravel()])
-    Vs = jnp.asarray(VV.ravel())
+    grid, a = line_grid(loads)
+    method = jr.Full(grid=grid)
 
-    @jax.jit
-    def sweep(thetas, Vs):
-        return jax.lax.map(lambda a: rr(*a), (thetas, Vs), batch_size=1)
+    def table(th, loads, speeds):
+        G, tau, f, H_ = th
+        out = jr.rolling_resistance_grid(jr.StandardLinearSolid(G, tau, f), jr.Layer(H_), radius=R, loads=loads,
+                                         speeds=speeds, geometry="cylinder", method=method)
+        return out.value, out.result, out.iterations
 
-    c_sw, t_sw, (vals, (status, iters)) = timed(sweep, thetas, Vs, repeat=1)
-    n = len(Vs)
-    print(f"\nreference sweep {len(speeds)} x {len(loads)} = {n} solves (lax.map, batch 1): "
-          f"compile+first {c_sw:.1f} s, run {t_sw:.2f} s ({1e3 * t_sw / n:.1f} ms/solve); "
-          f"failures {int(np.sum(np.asarray(status) != 0))}, iterations "
+    th = jnp.asarray([G0, TAU, F, H])
+    Ps, Vs = jnp.asarray(loads), jnp.asarray(speeds)
+    c_sw, t_sw, (vals, status, iters), _ = aot(table, th, Ps, Vs, repeat=3)
+    vals, iters = np.asarray(vals), np.asarray(iters)
+    n = vals.size
+    print(f"\nreference table {len(speeds)} x {len(loads)} = {n} points (window {grid.window}, dx "
+          f"{float(grid.spacing) * 1e6:.0f} um, {N_CELLS} period cells): compile {c_sw:.1f} s, run {t_sw:.2f} s "
+          f"({1e3 * t_sw / n:.1f} ms/point); not valid {int(np.sum(np.asarray(status) != 0))}, iterations "
           f"min/median/max {int(iters.min())}/{int(np.median(iters))}/{int(iters.max())}")
 
-    @jax.jit
-    def sweep_grad(thetas, Vs):
-        g = jax.value_and_grad(lambda th, v: rr(th, v)[0], argnums=(0, 1))
-        return jax.lax.map(lambda a: g(*a), (thetas, Vs), batch_size=1)
+    sub = (slice(None, None, 11), slice(None, None, 7)) if not args.quick else (slice(None, 2), slice(None))
+    Vsub, Psub = Vs[sub[0]], Ps[sub[1]]
+    grad_fn = jax.value_and_grad(lambda th, P, V: jnp.sum(table(th, P, V)[0]))
+    c_sg, t_sg, _, _ = aot(grad_fn, th, Psub, Vsub, repeat=3)
+    _, t_sv, _, _ = aot(table, th, Psub, Vsub, repeat=3)
+    print(f"table value_and_grad (d sum/d(G0, tau, f, H)) on {Vsub.size} x {Psub.size} points: compile {c_sg:.1f} s, "
+          f"run {t_sg:.2f} s, ratio to value on the same points {t_sg / t_sv:.2f}x")
 
-    sub = slice(None, None, 23) if not args.quick else slice(None, None, 3)  # a subset of the cases
-    c_sg, t_sg, _ = timed(sweep_grad, thetas[sub], Vs[sub], repeat=3)
-    _, t_sv, _ = timed(sweep, thetas[sub], Vs[sub], repeat=3)
-    print(f"sweep value_and_grad on {len(Vs[sub])} of the cases: compile+first {c_sg:.1f} s, run {t_sg:.2f} s, "
-          f"ratio to value on the same cases {t_sg / t_sv:.2f}x")
-
+    VV, PP = np.meshgrid(speeds, loads, indexing="ij")
     t = time.perf_counter()
-    nvals = np.array([numpy_solve(float(v), float(p))[0] for v, p in zip(VV.ravel(), PP.ravel())])
+    nvals = np.array([numpy_solve(float(v_), float(p_), grid, a.min())[0] for v_, p_ in zip(VV.ravel(), PP.ravel())])
     t_np = time.perf_counter() - t
-    rel = np.max(np.abs(nvals / np.asarray(vals) - 1))
-    print(f"NumPy dense baseline sweep: {t_np:.2f} s ({1e3 * t_np / n:.1f} ms/solve), "
+    rel = np.max(np.abs(nvals.reshape(vals.shape) / vals - 1))
+    print(f"NumPy dense baseline table: {t_np:.2f} s ({1e3 * t_np / n:.1f} ms/point), "
           f"max rel. diff to jaxroll {rel:.1e}; speed-up jaxroll/NumPy {t_np / t_sw:.2f}x")
-    print("\n(2-core machine shared with other jobs: timings are noisy, medians of repeated runs)")
+    summary(cmd + f" (table {len(speeds)}x{len(loads)})", t_sw, c_sw, f"NumPy dense {t_np:.2f} s",
+            f"{t_np / t_sw:.1f}x", f"{n} points, one envelope grid, window {grid.window}")
     print("(paper, full 3D model, 2010 laptop: 1.33 s per solve, 54 min per reference case)")
 
 
