@@ -6,7 +6,10 @@ The baseline is the same closed form (same three-branch stable evaluation) writt
 NumPy, run in the same process. Reports compile time apart, medians of repeated runs, the
 ratio, and the max relative difference between the two.
 
-Usage: python benchmarks/bench_layer.py [--modes 1001] [--repeats 3]
+Times the public ``jr.surface_compliance`` under ``jax.jit`` (``lax.map`` over speeds), compiled
+ahead of time apart from the runs. ``--quick``: 201 x 201 modes, 2 repeats.
+
+Usage: python benchmarks/bench_layer.py [--quick] [--modes 1001] [--repeats 3]
 """
 
 import argparse
@@ -18,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxroll as jr
+from _timing import aot, summary
 
 
 def numpy_compliance(qx, qy, V, H, rho, G0, tau, f):
@@ -86,7 +90,10 @@ def main():
     ap.add_argument("--modes", type=int, default=1001)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--numpy-speeds", type=int, default=23, help="speeds timed for the NumPy baseline")
+    ap.add_argument("--quick", action="store_true", help="201 x 201 modes, 2 repeats")
     args = ap.parse_args()
+    if args.quick:
+        args.modes, args.repeats = 201, 2
     n = args.modes
     L, H, rho = 0.2, 0.005, 1000.0
     G0, tau, f = 3e6, 0.25, 1.0
@@ -97,20 +104,11 @@ def main():
     speeds = np.logspace(-4, 0, 23)
     qxj, qyj = jnp.asarray(qx), jnp.asarray(qy)
 
-    @jax.jit
     def all_speeds(speeds):
         # one speed at a time keeps the working set at ~1001^2 complex temporaries
         return jax.lax.map(lambda V: jr.surface_compliance(layer, mat, qxj, qyj, V), speeds)
 
-    t0 = time.perf_counter()
-    out = all_speeds(jnp.asarray(speeds)).block_until_ready()
-    first = time.perf_counter() - t0
-    times = []
-    for _ in range(args.repeats):
-        t0 = time.perf_counter()
-        out = all_speeds(jnp.asarray(speeds)).block_until_ready()
-        times.append(time.perf_counter() - t0)
-    t_jax = float(np.median(times))
+    compile_s, t_jax, out, _ = aot(all_speeds, jnp.asarray(speeds), repeat=args.repeats)
 
     ns = args.numpy_speeds
     times_np = []
@@ -124,14 +122,17 @@ def main():
     mask = np.abs(ref) > 0
     rel = np.max(np.abs(got[mask] - ref[mask]) / np.abs(ref[mask]))
 
-    print(f"# layer compliance benchmark  ({platform.processor() or platform.machine()}, "
+    print(f"# layer compliance benchmark  (shared 2-core machine; {platform.processor() or platform.machine()}, "
           f"{jax.devices()[0].platform}, {jax.device_count()} device(s), complex128)")
     print(f"grid {n} x {n} modes x {len(speeds)} speeds = {n * n * len(speeds):.3e} T evaluations")
-    print(f"compile + first run   : {first:8.3f} s  (compile ~ {first - t_jax:.3f} s)")
+    print(f"compile (ahead of time): {compile_s:8.3f} s")
     print(f"jaxroll (jit, median) : {t_jax:8.3f} s  ({n * n * len(speeds) / t_jax / 1e6:.1f} M evals/s)")
     print(f"NumPy  (median{'' if ns == len(speeds) else f', {ns} speeds scaled'}) : {t_np:8.3f} s")
     print(f"ratio NumPy / jaxroll : {t_np / t_jax:8.2f}")
     print(f"max rel. difference   : {rel:.2e}")
+    summary("bench_layer.py" + (" --quick" if args.quick else f" --modes {n}"), t_jax, compile_s,
+            f"same closed form in NumPy {t_np:.3f} s", f"{t_np / t_jax:.1f}x",
+            f"{n} x {n} modes x {len(speeds)} speeds, with inertia")
 
 
 if __name__ == "__main__":
