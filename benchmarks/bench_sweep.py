@@ -6,22 +6,22 @@ Usage::
     python benchmarks/bench_sweep.py --workloads series --points 20000 --devices 1,2
     python benchmarks/bench_sweep.py --workloads direct --points 1000000   # issue 9 target
     python benchmarks/bench_sweep.py --strategies-only
+    python benchmarks/bench_sweep.py --quick               # reduced: 1,2 devices, small workloads
 
 What it measures
 ----------------
 1. Scaling: each device count runs in its own process (``XLA_FLAGS=
    --xla_force_host_platform_device_count=k`` must be set before jax is imported). For each
-   workload: the trace + compile time of the sweep program (ahead of time, apart), then one
-   warm-up call and the median of ``--reps`` further calls, timed with ``block_until_ready``
-   (``sweep`` returns ready arrays); points/s and the speed-up
-   against 1 device; the compiled working memory per device (XLA ``temp_size_in_bytes``) and,
-   on GPU, the device memory high-water mark (``memory_stats()["peak_bytes_in_use"]``).
+   workload, through the public ``jr.sweep``: the first call (trace + compile + run), then the
+   median of ``--reps`` further calls, timed with ``block_until_ready``; compile = first minus
+   median; points/s and the speed-up against 1 device; on GPU, the device memory high-water
+   mark (``memory_stats()["peak_bytes_in_use"]``).
    **On CPU the forced host devices share the machine's cores** (2 here, shared with other
    jobs): they measure the sharding overhead and correctness, not real scaling. On a GPU host
    ``--devices`` is capped at the real device count and ``XLA_FLAGS`` is left alone.
 2. Strategies (one device): ``sweep`` with several chunk sizes vs one ``jit(vmap)`` over all
-   points vs ``lax.map(batch_size=...)`` vs a host loop over a jitted chunk; time and
-   compiled working memory (cf. DESIGN.md sec. 6: chunks of 1 took 3.6 s / 7 MiB against a
+   points vs ``lax.map(batch_size=...)`` vs a host loop over a jitted chunk; time, and the
+   compiled working memory of the ``jit`` strategies (cf. docs/design.md sec. 6: chunks of 1 took 3.6 s / 7 MiB against a
    full vmap's 4.7-5.7 s / 2-5 GB for 345 cases x 5000 modes).
 
 Workloads (see ``WORKLOADS``; the HOOK section is where the real models plug in):
@@ -29,10 +29,11 @@ Workloads (see ``WORKLOADS``; the HOOK section is where the real models plug in)
 * ``modulus``: tan delta of a standard linear solid at omega = V/a -- a few flops per point.
 * ``series``: a stand-in for the direct method: periodic Hertz-sphere-like series over
   ``--modes`` Fourier modes on a half-space (``Im T = Im 1/(2 conj(G*(qV)) q)``) per point.
-* ``direct``: ``jaxroll.rolling_resistance(method="direct")`` (aperiodic, sphere, H = 5 mm;
-  falls back to ``jaxroll.direct.direct_rolling_resistance``); issue 9 asks for >= 1e6 points.
-* ``full2d``: ``jaxroll.rolling_resistance`` (if it exists) or
-  ``jaxroll.cylinder.rolling_resistance_full``; issue 9 asks for >= 1e4 points.
+* ``direct``: ``jr.rolling_resistance(method=jr.Direct())`` (aperiodic, sphere, H = 5 mm);
+  issue 9 asks for >= 1e6 points.
+* ``full2d``: ``jr.rolling_resistance(geometry="cylinder", method=jr.Full(grid))`` with the grid
+  resolved once over the envelope of the sweep (``method.resolve``); issue 9 asks for >= 1e4
+  points.
 """
 
 from __future__ import annotations
@@ -92,8 +93,7 @@ def workload_series(n, args):
     return fn, grid, f"direct-series stand-in, {M} modes, half-space"
 
 
-# ---- HOOK: the real models ----------------------------------------------------------------
-# LEAD: adjust the configurations here (both use jaxroll.rolling_resistance when it exists).
+# ---- the real models -----------------------------------------------------------------------
 # Each returns (fn, grid, description) with fn(point) -> scalar; a workload that raises is
 # reported as "unavailable: <error>". Issue 9 targets: direct >= 1e6 points
 # (--workloads direct --points 1000000: ~1 min per device count here), full 2D >= 1e4 points
@@ -108,17 +108,12 @@ def workload_direct(n, args):
     grid = _grid_2d(n, jnp, jr)
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
     layer = jr.Layer(5e-3)
-    if hasattr(jr, "rolling_resistance"):
-        def fn(p):
-            return jr.rolling_resistance(mat, layer, radius=0.02, load=p.P, speed=p.V, method="direct").value
-        desc = "jaxroll.rolling_resistance(method='direct'), sphere, H = 5 mm, aperiodic, rtol 1e-4"
-    else:
-        from jaxroll.direct import direct_rolling_resistance
+    method = jr.Direct()
 
-        def fn(p):
-            return direct_rolling_resistance(mat, layer, radius=0.02, load=p.P, speed=p.V).value
-        desc = "jaxroll.direct.direct_rolling_resistance, sphere, H = 5 mm, aperiodic"
-    return fn, grid, desc
+    def fn(p):
+        return jr.rolling_resistance(mat, layer, radius=0.02, load=p.P, speed=p.V, method=method, throw=False).value
+
+    return fn, grid, "jr.rolling_resistance(method=jr.Direct()), sphere, H = 5 mm, aperiodic, rtol 1e-4"
 
 
 def workload_full2d(n, args):
@@ -126,21 +121,22 @@ def workload_full2d(n, args):
 
     import jaxroll as jr
 
-    # Static grid (inside a sweep the inputs are traced, so the automatic resolution cannot be
-    # read from them): 25 cells per relaxed Hertz half-width and 2^14 period cells, i.e. a
-    # period of 655 a0 >= 20 max(4 a0, V tau) for every point of this grid (V tau <= 25 mm,
-    # a0 >= 1.5 mm), the resolution an eager call chooses (jaxroll.cylinder.static_resolution).
+    # Inside a sweep the inputs are traced, so the grid is resolved once from the concrete
+    # envelope of the sweep (25 cells per smallest half-width, automatic period), as a user does.
     n_v = max(1, n // 15 + (n % 15 > 0))
     grid = jr.Grid(V=jnp.logspace(-4.0, -1.0, n_v), P=jnp.linspace(1e3, 1e4, min(n, 15)))
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
     layer = jr.Layer(5e-3)
+    method = jr.Full(grid=jr.AutoGrid(cells_per_radius=25)).resolve(
+        mat, layer, radius=0.02, loads=grid.axes["P"], speeds=grid.axes["V"], geometry="cylinder")
 
     def fn(p):
         return jr.rolling_resistance(mat, layer, radius=0.02, load=p.P, speed=p.V, geometry="cylinder",
-                                     method="full", n_cells=2**14, cells_per_radius=25).value
+                                     method=method, throw=False).value
 
-    desc = ("jaxroll.rolling_resistance(geometry='cylinder', method='full'), H = 5 mm, P' 1-10 kN/m, "
-            "V 1e-4..0.1 m/s, 2^14 period cells, 25 cells per half-width")
+    g = method.grid
+    desc = (f"jr.rolling_resistance(geometry='cylinder', method=jr.Full(resolved grid)), H = 5 mm, P' 1-10 kN/m, "
+            f"V 1e-4..0.1 m/s, {g.n_cells[0]} period cells, window {g.window}")
     return fn, grid, desc
 
 
@@ -175,26 +171,22 @@ def run_child(args) -> None:
     import jax
 
     import jaxroll as jr
-    from jaxroll.sweep import _compiled
 
     n_dev = jax.device_count()
     rows = []
     for name in args.workloads:
         make, default_n = WORKLOADS[name]
-        n = args.points or default_n
+        n = args.points or ((30 if name == "full2d" else 2000) if args.quick else default_n)
         try:
             fn, pts, desc = make(n, args)
             call = lambda: jax.block_until_ready(jr.sweep(fn, pts, chunk_size=args.chunk_size))
-            t0 = time.perf_counter()
-            mem = _compiled(fn, pts, chunk_size=args.chunk_size).memory_analysis()  # AOT: trace+compile
-            compile_s = time.perf_counter() - t0
             first, med = _time(call, args.reps)
+            compile_s = first - med  # jr.sweep compiles on its first call
             size = pts.size if isinstance(pts, jr.Grid) else len(jax.tree_util.tree_leaves(pts)[0])
             stats = [d.memory_stats() or {} for d in jax.local_devices()]  # None on CPU
             peak = max((st.get("peak_bytes_in_use", 0) for st in stats), default=0)
             rows.append(dict(workload=name, desc=desc, devices=n_dev, points=size, first_s=first, run_s=med,
                              compile_s=compile_s, points_per_s=size / med,
-                             temp_mib=mem.temp_size_in_bytes / 2**20 if mem else float("nan"),
                              peak_mib=peak / 2**20 if peak else None))
         except Exception as e:  # noqa: BLE001  (a hook that is not ready yet)
             rows.append(dict(workload=name, devices=n_dev, error=f"{type(e).__name__}: {str(e)[:200]}"))
@@ -208,7 +200,6 @@ def run_strategies(args) -> None:
     import numpy as np
 
     import jaxroll as jr
-    from jaxroll.sweep import _compiled
 
     n = args.strategy_points
     fn, grid, desc = workload_series(n, argparse.Namespace(modes=args.strategy_modes))
@@ -219,17 +210,17 @@ def run_strategies(args) -> None:
     print(f"{'strategy':<34}{'compile s':>10}{'run s':>9}{'points/s':>11}{'temp MiB':>10}")
     ref = np.asarray(jax.jit(jax.vmap(fn))(pts))
 
-    def report(label, call, compiled):
+    def report(label, call, compiled=None):
         first, med = _time(call, args.reps)
         out = np.asarray(call())
         err = np.max(np.abs(out.ravel() - ref.ravel())) / np.max(np.abs(ref))
-        mem = compiled().memory_analysis().temp_size_in_bytes / 2**20
-        print(f"{label:<34}{first - med:>10.2f}{med:>9.3f}{n / med:>11.3g}{mem:>10.1f}   (rel. diff {err:.1e})")
+        mem = f"{compiled().memory_analysis().temp_size_in_bytes / 2**20:>10.1f}" if compiled else f"{'n/a':>10}"
+        print(f"{label:<34}{first - med:>10.2f}{med:>9.3f}{n / med:>11.3g}{mem}   (rel. diff {err:.1e})")
 
     dev = jax.devices()[:1]
     for cs in args.strategy_chunks:
-        report(f"sweep chunk_size={cs}", lambda cs=cs: jr.sweep(fn, grid, chunk_size=cs, devices=dev),
-               lambda cs=cs: _compiled(fn, grid, chunk_size=cs, devices=dev))
+        report(f"sweep chunk_size={cs}", lambda cs=cs: jax.block_until_ready(jr.sweep(fn, grid, chunk_size=cs,
+                                                                                      devices=dev)))
     full = jax.jit(jax.vmap(fn))
     report("jit(vmap(fn)) all points", lambda: jax.block_until_ready(full(pts)), lambda: full.lower(pts).compile())
     for bs in (1, 16):
@@ -289,8 +280,13 @@ def main() -> int:
     ap.add_argument("--strategy-points", type=int, default=345, help="DESIGN sec. 6 used 345 x 5000")
     ap.add_argument("--strategy-modes", type=int, default=5000)
     ap.add_argument("--strategy-chunks", default="1,8,64,256")
+    ap.add_argument("--quick", action="store_true",
+                    help="reduced: devices 1,2; 2000 points (full2d 30); strategies on 64 points x 500 modes")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.quick and not args.child:
+        args.devices, args.strategy_points, args.strategy_modes, args.strategy_chunks = "1,2", 64, 500, "1,16"
+        args.reps = min(args.reps, 2)
     args.workloads = [w for w in args.workloads.split(",") if w]
     args.strategy_chunks = [int(c) for c in args.strategy_chunks.split(",")]
     for w in args.workloads:
@@ -312,6 +308,8 @@ def main() -> int:
                    "--modes", str(args.modes), "--reps", str(args.reps)]
             if args.points:
                 cmd += ["--points", str(args.points)]
+            elif args.quick:
+                cmd += ["--quick"]
             if args.chunk_size:
                 cmd += ["--chunk-size", str(args.chunk_size)]
             if gpu:
@@ -340,7 +338,7 @@ def _print_table(rows, gpu) -> None:
     where = "GPU" if gpu else f"CPU, forced host devices sharing {os.cpu_count()} cores"
     print(f"sweep throughput ({where}; {platform.node()}; float64; default chunk_size unless --chunk-size)")
     print(f"{'workload':<10}{'devices':>8}{'points':>10}{'compile s':>10}{'run s':>9}{'points/s':>11}"
-          f"{'x vs 1':>8}{'temp MiB/dev':>13}{'peak MiB/dev':>13}")
+          f"{'x vs 1':>8}{'peak MiB/dev':>13}")
     base = {}
     for r in rows:
         if "error" in r:
@@ -348,11 +346,18 @@ def _print_table(rows, gpu) -> None:
             continue
         base.setdefault(r["workload"], r["points_per_s"])
         print(f"{r['workload']:<10}{r['devices']:>8}{r['points']:>10}{r['compile_s']:>10.2f}{r['run_s']:>9.3f}"
-              f"{r['points_per_s']:>11.3g}{r['points_per_s'] / base[r['workload']]:>8.2f}{r['temp_mib']:>13.1f}"
+              f"{r['points_per_s']:>11.3g}{r['points_per_s'] / base[r['workload']]:>8.2f}"
               f"{(format(r['peak_mib'], '.1f') if r['peak_mib'] is not None else 'n/a (CPU)'):>13}")
     descs = {r["workload"]: r["desc"] for r in rows if "desc" in r}
     for k, v in descs.items():
         print(f"  {k}: {v}")
+    from _timing import summary
+
+    for r in rows:
+        if "error" not in r:
+            summary(f"bench_sweep.py {r['workload']} ({r['devices']} device(s))", r["run_s"], r["compile_s"],
+                    "1 device" if r["devices"] > 1 else "", f"{r['points_per_s'] / base[r['workload']]:.2f}x",
+                    f"{r['points']} points, {r['points_per_s']:.3g} points/s, forced host devices on 2 shared cores")
 
 
 if __name__ == "__main__":
