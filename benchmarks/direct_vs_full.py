@@ -2,28 +2,31 @@
 
 Run:  python benchmarks/direct_vs_full.py [--quick] [--cases 30mm,5mm,10um]
 
-For each case, the full 3D model (jaxroll.sphere3d.rolling_resistance_sweep at the paper's
-resolution: L = 20 cm, a = 0.25 mm, 500 Fourier terms, window 41 cells enlarged to fit the
-largest contact) over 23 log-spaced speeds 1e-4..1 m/s x 15 loads, SLS G0 = 3 MPa,
+For each case, the full 3D model (``jr.Full(grid=jr.FixedGrid(2.5e-4, window, period=0.2,
+n_terms=500))`` through ``jr.rolling_resistance_grid``: the paper's resolution, window 41 cells
+enlarged to fit the largest contact) over 23 log-spaced speeds 1e-4..1 m/s x 15 loads, SLS G0 = 3 MPa,
 tau = 0.25 s, f = 1, frictionless:
 
 * H = 30 mm and 5 mm: R = 2 cm, P = 10..150 N;
 * H = 10 um: R = 2000 m, P = 0.2..2 kN (thin layer, gamma = 333..488),
 
-against the direct series ([ZG] eq. 37/42, jaxroll.direct) with the same period and number of
+against the direct series ([ZG] eq. 37/42, ``jr.Direct``) with the same period and number of
 terms (L = 20 cm, 500 terms: the periodic train is the same physics as the full model's), with
 the contact radius from the static modulus (default, E = 3 G0) and from
 ``modulus="dynamic"`` (G'(V/r_static)); the aperiodic direct value (single roller, the library
 default) for reference; and the direct series with the exact static grid pressure
-(``pressure="elastic"``: jaxroll.sphere3d.direct_elastic_rolling_resistance, evaluated here as a
-sweep on the full model's own grid, so that only the stationary-pressure assumption differs).
+(``jr.Direct(pressure="elastic", grid=<the full model's FixedGrid>)``: on the full model's own
+grid, so that only the stationary-pressure assumption differs). Every method is run through
+``jr.rolling_resistance_grid`` compiled ahead of time; compile and run times are printed apart.
 
 Prints, per case and method, the relative error ``direct/full - 1`` (full = pressure-moment
-form): its global mean, mean |.|, range, its mean over loads per speed and over speeds per
-load, and the moment-vs-dissipation spread of the full model. ``--quick``: 6 speeds x 4 loads,
-a = 0.5 mm, 250 terms.
+form): its global mean, mean |.|, range, its mean below/above the R_r peak, its mean over loads
+per speed and over speeds per load. (The old script also printed the full model's
+moment-vs-dissipation spread; the public ``RollingResult`` carries no dissipation value.)
+``--quick``: 6 speeds x 4 loads, a = 0.5 mm, 250 terms, window >= 21.
 
-Result (2-core CPU, November 2026; error = direct/full - 1, full = moment form):
+Result (old API, 2-core CPU, November 2026, full resolution; error = direct/full - 1, full =
+moment form):
 
     case    static E (default)                  dynamic E          grid static pressure
             mean    low V  peak   plateau        mean   worst       mean
@@ -50,17 +53,16 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 import jaxroll as jr
-from jaxroll import contact as _contact
-from jaxroll import sphere3d as s3
+from _timing import aot, summary
 
 G0, TAU, F = 3e6, 0.25, 1.0
+PERIOD = 0.2
 CASES = {
     "30mm": dict(H=30e-3, R=0.02, loads=(10.0, 150.0)),
     "5mm": dict(H=5e-3, R=0.02, loads=(10.0, 150.0)),
@@ -68,31 +70,13 @@ CASES = {
 }
 
 
-def direct_elastic_sweep(mat, layer, R, loads, speeds, *, period, spacing, window, n_terms):
-    """``R_r`` [N] of the direct series with the static grid pressure (relaxed modulus) of every
-    load, under the rolling compliance of every speed: ``(n_speeds, n_loads)``. Same as
-    :func:`jaxroll.sphere3d.direct_elastic_rolling_resistance` point by point, with the static
-    solve done once per load and the kernel once per speed."""
-    res, _ = s3._resolution(mat, layer, R, loads[0], jnp.asarray(0.0), period=period, spacing=spacing,
-                            n_cells=None, window=window, n_terms=n_terms, cells_per_radius=None,
-                            window_factor=1.25, period_factor=20.0)
-    factor = s3._layer_factor(layer, res.n_cells, res.period, res.n_terms)
-    K0, _ = s3._kernel_from_factor(factor, mat, jnp.asarray(0.0))
-    zero = jnp.zeros_like(jnp.real(K0))
-    r_est = jax.vmap(lambda P: s3.estimate_contact_radius(mat, layer, R, P))(loads)
+def table(method, R):
+    def fn(G, H, loads, speeds):
+        out = jr.rolling_resistance_grid(jr.StandardLinearSolid(G, TAU, F), jr.Layer(H), radius=R, loads=loads,
+                                         speeds=speeds, method=method)
+        return out.value, out.result
 
-    def static(args):
-        P, r0 = args
-        s = s3._solve_on(K0, zero, res, R, P, r0, tol=1e-10, max_steps=50, throw=False, est=r0)
-        return s.contact.pressure, s.contact.status
-
-    pressures, status = jax.lax.map(static, (loads, r_est))
-
-    def one_speed(V):
-        _, K2 = s3._kernel_from_factor(factor, mat, V)
-        return jax.vmap(lambda p: _contact.dissipation_resistance(K2, p, res.n_cells, res.period))(pressures)
-
-    return jax.lax.map(one_speed, speeds), status
+    return fn
 
 
 def run_case(name, quick):
@@ -102,60 +86,54 @@ def run_case(name, quick):
         speeds, loads, spacing, n_terms = np.logspace(-4, 0, 6), np.linspace(*c["loads"], 4), 5e-4, 250
     else:
         speeds, loads, spacing, n_terms = np.logspace(-4, 0, 23), np.linspace(*c["loads"], 15), 2.5e-4, 500
-    period = 0.2
     mat = jr.StandardLinearSolid(G0, TAU, F)
-    layer = jr.Layer(H)
-    r_max = float(s3.estimate_contact_radius(mat, layer, R, float(loads.max())))
+    r_max = float(jr.estimate_contact_size(mat, jr.Layer(H), R, float(loads.max())))
     window = max(41 if not quick else 21, 2 * math.ceil(1.15 * r_max / spacing) + 1)
-    Ps, Vs = jnp.asarray(loads), jnp.asarray(speeds)
+    grid = jr.FixedGrid(spacing, window, period=PERIOD, n_terms=n_terms)
+    args = (G0, H, jnp.asarray(loads), jnp.asarray(speeds))
 
-    t = time.perf_counter()
-    full = jax.jit(lambda G: s3.rolling_resistance_sweep(jr.StandardLinearSolid(G, TAU, F), layer, R, Ps, Vs,
-                                                         period=period, spacing=spacing, window=window,
-                                                         n_terms=n_terms))(G0)
-    full = jax.tree_util.tree_map(np.asarray, full)
-    t_full = time.perf_counter() - t
-
-    def direct(modulus, periodic):
-        kw = dict(period=period, n_terms=n_terms) if periodic else {}
-        f = lambda V, P: jr.direct_rolling_resistance(mat, layer, radius=R, load=P, speed=V, modulus=modulus,
-                                                      **kw).value
-        return np.asarray(jax.jit(jax.vmap(jax.vmap(f, (None, 0)), (0, None)))(Vs, Ps))
-
-    t = time.perf_counter()
-    methods = {
-        "direct (static E, L = 20 cm)": direct("static", True),
-        "direct (dynamic E, L = 20 cm)": direct("dynamic", True),
-        "direct (static E, aperiodic)": direct("static", False),
+    c_full, t_full, (v, st), _ = aot(table(jr.Full(grid=grid), R), *args, repeat=1)
+    v, st = np.asarray(v), np.asarray(st)
+    variants = {
+        "direct (static E, L = 20 cm)": jr.Direct(period=PERIOD, n_terms=n_terms),
+        "direct (dynamic E, L = 20 cm)": jr.Direct(modulus="dynamic", period=PERIOD, n_terms=n_terms),
+        "direct (static E, aperiodic)": jr.Direct(),
+        "direct (grid static pressure)": jr.Direct(pressure="elastic", grid=grid),
     }
-    de, de_status = jax.jit(lambda G: direct_elastic_sweep(jr.StandardLinearSolid(G, TAU, F), layer, R, Ps, Vs,
-                                                           period=period, spacing=spacing, window=window,
-                                                           n_terms=n_terms))(G0)
-    methods["direct (grid static pressure)"] = np.asarray(de)
-    t_direct = time.perf_counter() - t
+    methods, times = {}, {}
+    for k, m in variants.items():
+        comp, run, (val, status), _ = aot(table(m, R), *args, repeat=1)
+        methods[k], times[k] = np.asarray(val), (comp, run)
+        bad = np.asarray(status) != 0
+        if bad.any():
+            names = sorted({jr.RESULTS.names[int(x)] for x in np.asarray(status)[bad]})
+            print(f"  {k}: {int(bad.sum())} points not valid ({', '.join(names)})")
 
-    v, d = full["value"], full["dissipation"]
-    bad = int(np.sum(full["status"] != 0)) + int(np.sum(np.asarray(de_status) != 0))
-    spread = (v - d) / v
+    codes = sorted({jr.RESULTS.names[int(x)] for x in st[st != 0]})
     print(f"\n=== H = {H:g} m, R = {R:g} m, P = {loads[0]:g}..{loads[-1]:g} N, V = {speeds[0]:g}..{speeds[-1]:g} m/s "
-          f"({len(speeds)} x {len(loads)}); a = {spacing * 1e3:g} mm, L = {period} m, {n_terms} terms, "
-          f"window {window}; full sweep {t_full:.1f} s, direct methods {t_direct:.1f} s; non-converged {bad}")
-    print(f"full model: R_r {v.min():.4g}..{v.max():.4g} N; moment vs dissipation: mean {spread.mean():+.2e}, "
-          f"mean |.| {np.abs(spread).mean():.2e}, max |.| {np.abs(spread).max():.2e} "
-          f"(at P = {loads[np.unravel_index(np.argmax(np.abs(spread)), v.shape)[1]]:g} N, "
-          f"V = {speeds[np.unravel_index(np.argmax(np.abs(spread)), v.shape)[0]]:.3g} m/s)")
+          f"({len(speeds)} x {len(loads)}); a = {spacing * 1e3:g} mm, L = {PERIOD} m, {n_terms} terms, "
+          f"window {window}; full model: run {t_full:.1f} s, compile {c_full:.1f} s; not valid {int(np.sum(st != 0))} "
+          f"({', '.join(codes) or 'none'})")
+    print("direct methods: " + "; ".join(f"{k.split('(')[1][:-1]}: run {r:.3f} s, compile {c:.1f} s"
+                                       for k, (c, r) in times.items()))
+    print(f"full model: R_r {v.min():.4g}..{v.max():.4g} N")
     peak = np.argmax(v, axis=0)  # speed index of the R_r peak per load
     above = np.arange(len(speeds))[:, None] > peak[None, :]
-    print(f"{'method':32s} {'mean':>8s} {'mean|.|':>8s} {'min':>8s} {'max':>8s} {'below pk':>8s} {'above pk':>8s}"
-          f" {'vs diss':>8s}")
+    print(f"{'method':32s} {'mean':>8s} {'mean|.|':>8s} {'min':>8s} {'max':>8s} {'below pk':>8s} {'above pk':>8s}")
     for k, m in methods.items():
         e = m / v - 1.0
         print(f"{k:32s} {e.mean():+8.2%} {np.abs(e).mean():8.2%} {e.min():+8.2%} {e.max():+8.2%} "
-              f"{e[~above].mean():+8.2%} {e[above].mean():+8.2%} {(m / d - 1.0).mean():+8.2%}")
+              f"{e[~above].mean():+8.2%} {e[above].mean():+8.2%}")
     for k, m in methods.items():
         e = m / v - 1.0
         print(f"{k}: mean error per speed [{', '.join(f'{x:+.1%}' for x in e.mean(axis=1))}]")
         print(f"{' ' * len(k)}  mean error per load  [{', '.join(f'{x:+.1%}' for x in e.mean(axis=0))}]")
+    per = v.size
+    c_d, t_d = times["direct (static E, aperiodic)"]
+    summary(f"direct_vs_full.py{' --quick' if quick else ''} --cases {name}", t_d, c_d,
+            f"full 3D {t_full:.2f} s on the same {per} points", f"{t_full / t_d:.0f}x",
+            f"direct aperiodic mean error {np.mean(methods['direct (static E, aperiodic)'] / v - 1):+.1%}; "
+            f"a = {spacing * 1e3:g} mm")
 
 
 def main():
@@ -163,7 +141,8 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--cases", default="30mm,5mm,10um")
     args = ap.parse_args()
-    print(f"device: {jax.devices()[0].device_kind}; SLS G0 = {G0:g} Pa, tau = {TAU} s, f = {F}")
+    print(f"device: {jax.devices()[0].device_kind} (shared 2-core machine); SLS G0 = {G0:g} Pa, tau = {TAU} s, "
+          f"f = {F}")
     for name in args.cases.split(","):
         run_case(name, args.quick)
 
