@@ -76,7 +76,7 @@ def main():
                           f"{value:.4g}{flag} | {dev}", flush=True)
                     if name != "full" and ref_run:
                         summary(f"default_method.py{' --quick' if args.quick else ''} ({geometry}, H = {H * 1e3:g} mm, "
-                                f"V = {V:g}, {name})", run, first - run, f"full {ref_run:.4f} s per point",
+                                f"V = {V:g}, {name})", run, max(first - run, 0.0), f"full {ref_run:.4f} s per point",
                                 f"{ref_run / run:.0f}x", f"one point, automatic grid; deviation from full {dev}")
 
 
