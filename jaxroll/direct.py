@@ -394,13 +394,52 @@ def _aperiodic_cylinder(material, layer, V, P, a, models, choice, settings):
     q = jnp.asarray(x) / a
     g = _im_t_fast(layer, material, q, q, jnp.zeros_like(q), V)
     Cp = _pick(choice, tuple(jnp.asarray(_ENVELOPE[("cylinder", m)]) for m in models))
-    lo = settings.x_lo**2 / 2.0 * g[0]
+    lo, lo_err = _low_x_cylinder(material, layer, V, a, settings.x_lo)
     tail = _power_tail(x[-2:], g[-2:], Cp[0], Cp[1], 1.0, settings.x_hi)
     scale = P * P / (math.pi * a * a)
     core = Wx @ g
     value = scale * (core[0] + lo + tail)
-    err = scale * (_richardson(core) + jnp.abs(lo) + jnp.abs(tail))
+    err = scale * (_richardson(core) + lo_err + jnp.abs(tail))
     return value, err
+
+
+#: Gauss-Legendre nodes (in ln x) of the cylinder's low-wavenumber part, and the most decades
+#: below ``x_lo`` it spans: it covers ``V t_max/a`` up to ``1e-3 x 10^9 / x_lo``, i.e. 1e11.
+_LOW_X_NODES, LOW_X_DECADES = 64, 9.0
+
+
+def _low_x_cylinder(material, layer, V, a, x_lo):
+    """``int_0^{x_lo} x g(x/a) dx`` (``S = 1`` there) and an error estimate, for the cylinder.
+
+    In 2D the dissipation of a slow retardation time ``lam`` peaks at ``q V lam ~ 1``, i.e.
+    ``x = q a ~ a/(V lam)``: for ``V t_max/a > ~1e4`` that is below ``x_lo`` and the integrand
+    is not constant there (a logarithmic contribution the panels never see). So ``[x_floor,
+    x_lo]`` with ``x_floor = 1e-3 a/(V t_max)`` (where the slowest peak has passed; clipped to
+    ``LOW_X_DECADES`` decades) is integrated by Gauss-Legendre in ``ln x``; below ``x_floor``
+    the integrand is taken as ``x g(x_floor)``. Error estimate: the difference to the
+    half-order rule plus the constant-extrapolation term.
+    """
+    t_max = material.longest_time()
+    reach = V * t_max / a
+    ln_lo = math.log(x_lo)
+    ln_floor = jnp.clip(jnp.log(1e-3 / where_safe(reach > 0, reach, 1.0)), ln_lo - LOW_X_DECADES * math.log(10), ln_lo)
+    ln_floor = jnp.where(reach > 0, ln_floor, ln_lo)
+    half = 0.5 * (ln_lo - ln_floor)
+
+    def rule(n):
+        t, w = np.polynomial.legendre.leggauss(n)
+        xs = jnp.exp(0.5 * (ln_lo + ln_floor) + half * jnp.asarray(t))
+        q = xs / a
+        gs = _im_t_fast(layer, material, q, q, jnp.zeros_like(q), V)
+        return half * jnp.sum(jnp.asarray(w) * xs * xs * gs), gs
+
+    full, _ = rule(_LOW_X_NODES)
+    coarse, _ = rule(_LOW_X_NODES // 2)
+    x_floor = jnp.exp(ln_floor)
+    q_floor = jnp.reshape(x_floor / a, (1,))
+    g_floor = _im_t_fast(layer, material, q_floor, q_floor, jnp.zeros_like(q_floor), V)[0]
+    below = 0.5 * x_floor * x_floor * g_floor
+    return full + below, jnp.abs(full - coarse) + jnp.abs(below)
 
 
 def _periodic_sphere(material, layer, V, P, r_c, models, choice, Lx, Ly, N):

@@ -41,6 +41,20 @@ def test_cylinder_halfspace_vs_persson_closed_form(V):
     assert float(res.truncation) < 1e-3
 
 
+@pytest.mark.parametrize("zeta", [1e2, 1e4, 1e5, 1e6, 1e8])
+def test_cylinder_halfspace_at_large_v_tau_over_a(zeta):
+    # regression: the quadrature started at x = q a = 1e-5 and missed the dissipation peak at
+    # q V tau ~ 1 once V tau/a > 1e4 (-0.9 % at 1e5, -13 % at 1e6, -34 % at 1e8, with a
+    # truncation estimate of 2-4 %). Oracle: the closed form; tolerance: the rtol of 1e-4, and
+    # the estimate must bound the true error.
+    a = float(jr.hertz_cylinder(1000.0, R, MAT.G0))
+    V = zeta * a / float(MAT.tau)
+    res = rr(load=1000.0, speed=V, geometry="cylinder")
+    ref = float(jr.persson_cylinder_halfspace(MAT, R, 1000.0, V))
+    err = abs(float(res.value) / ref - 1)
+    assert err < 1e-4 and err <= float(res.truncation) + 1e-10 and bool(res.valid)
+
+
 @pytest.mark.parametrize("V", [1e-4, 1e-2, 1.0])
 def test_sphere_halfspace_vs_persson_integral(V):
     # oracle: 1D scipy integral of the angle-integrated Persson form (reference module);
@@ -276,9 +290,12 @@ def test_gradients_periodic():
 
 @pytest.mark.parametrize(
     "kw,msg",
-    [(dict(load=-1.0, speed=0.1), "load P must be positive"), (dict(load=0.0, speed=0.1), "load P must be positive"),
-     (dict(load=10.0, speed=-0.1), "speed V must be >= 0"), (dict(load=10.0, speed=0.1, radius=-1.0),
-                                                             "radius R must be positive")],
+    [(dict(load=-1.0, speed=0.1), r"load P \[N, or N/m for cylinders\] must be positive"),
+     (dict(load=0.0, speed=0.1), r"load P \[N, or N/m for cylinders\] must be positive"),
+     (dict(load=10.0, speed=-0.1), r"speed V \[m/s\] must be >= 0"),
+     (dict(load=10.0, speed=0.1, radius=-1.0), r"radius R \[m\] must be positive"),
+     (dict(load=float("inf"), speed=0.1), r"load P .* must be positive and finite; got inf"),
+     (dict(load=10.0, speed=float("inf")), r"speed V .* must be >= 0 and finite")],
 )
 def test_bad_inputs_raise(kw, msg):
     kw.setdefault("radius", R)
@@ -290,7 +307,7 @@ def test_bad_thickness_raises():
     with pytest.raises(ValueError, match="positive thickness"):
         jr.Layer(-1e-3)
     f = jax.jit(lambda H: rr(jr.Layer(H), load=10.0, speed=0.1).value)
-    with pytest.raises(Exception, match="layer thickness H must be positive"):
+    with pytest.raises(Exception, match="H must be a positive thickness"):  # Layer.checked(), inside jit
         f(-1e-3)
 
 
