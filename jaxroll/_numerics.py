@@ -14,6 +14,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
@@ -79,19 +80,44 @@ def to_complex(x) -> jax.Array:
     return jnp.asarray(x).astype(jnp.complex128)
 
 
+#: The rules on the roller inputs: (name, symbol, unit, test, rule), one place for eager and traced checks.
+_ROLLER_RULES = (
+    ("radius", "R", "m", lambda v: (v > 0) & (v < np.inf), "positive and finite"),
+    ("load", "P", "N, or N/m for cylinders", lambda v: (v > 0) & (v < np.inf), "positive and finite"),
+    ("speed", "V", "m/s", lambda v: (v >= 0) & (v < np.inf), ">= 0 and finite (the roller travels toward +x)"),
+)
+
+
+def _describe(v) -> str:
+    v = np.asarray(v)
+    return f"{float(v):g}" if v.ndim == 0 else np.array2string(v, precision=4, threshold=8)
+
+
+def check_roller_values(radius, load, speed) -> None:
+    """``ValueError`` naming the argument, its value and the rule, for every concrete (not
+    traced) radius [m], load(s) [N or N/m] or speed(s) [m/s] that breaks it; traced values are
+    checked inside the computation by :func:`roller_inputs`."""
+    for (name, sym, unit, test, rule), x in zip(_ROLLER_RULES, (radius, load, speed)):
+        if isinstance(x, jax.core.Tracer):
+            continue
+        v = np.asarray(x, dtype=float)
+        bad = ~test(v)
+        if np.any(bad):
+            raise ValueError(f"{name} {sym} [{unit}] must be {rule}; got {_describe(v[bad] if v.ndim else v)}")
+
+
 def roller_inputs(radius, load, speed):
     """Radius ``R`` [m], load ``P`` [N, or N/m for cylinders] and speed ``V`` [m/s] as float64
     scalars, checked once for every method: ``ValueError`` for non-scalars (use ``jax.vmap``
     for sweeps), and ``eqx.error_if`` (works under jit/vmap/grad) for ``R <= 0``, ``P <= 0``,
-    ``V < 0`` or NaN."""
-    R, P, V = as_float(radius), as_float(load), as_float(speed)
-    for name, v in (("radius", R), ("load", P), ("speed", V)):
+    ``V < 0``, infinities or NaN."""
+    out = []
+    for (name, sym, unit, test, rule), x in zip(_ROLLER_RULES, (radius, load, speed)):
+        v = as_float(x)
         if v.shape != ():
             raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
-    R = eqx.error_if(R, ~(R > 0), "radius R must be positive")
-    P = eqx.error_if(P, ~(P > 0), "load P must be positive")
-    V = eqx.error_if(V, ~(V >= 0), "speed V must be >= 0 (the roller travels toward +x)")
-    return R, P, V
+        out.append(eqx.error_if(v, ~test(v), f"{name} {sym} [{unit}] must be {rule}"))
+    return tuple(out)
 
 
 class NewtonInfo(eqx.Module):

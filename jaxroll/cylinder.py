@@ -162,7 +162,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
 
 
 def result(s: CylinderSolution, grid: FixedGrid, layer, V, material) -> RollingResult:
-    ok = grid.period_ok(4.0 * s.estimated_half_width, V * material.longest_time(), 1)
+    ok = grid.period_ok(s.estimated_half_width, V * material.longest_time(), 1)
     return full_model_result(
         s.resistance, s.resistance_dissipation, s.half_width, layer.H,
         result=merge_results(s.contact.result, first_failure((~ok, RESULTS.period_too_short))),

@@ -97,8 +97,21 @@ class Layer(eqx.Module):
     rho: jax.Array = eqx.field(converter=_density, default=0.0)
     nu: float = eqx.field(static=True, default=0.5)
 
+    def checked(self) -> "Layer":
+        """This layer with ``H`` and ``rho`` checked inside compiled programs (``eqx.error_if``,
+        works under jit/vmap/grad): ``H > 0`` (``+inf``: half-space; ``-inf``, NaN and
+        ``H <= 0`` raise), ``rho >= 0`` and finite."""
+        H = eqx.error_if(self.H, ~(self.H > 0), "H must be a positive thickness in m (or jnp.inf for a half-space)")
+        out = eqx.tree_at(lambda l: l.H, self, H)
+        if isinstance(self.rho, jax.Array):
+            rho = eqx.error_if(self.rho, ~(jnp.isfinite(self.rho) & (self.rho >= 0)),
+                               "rho must be a finite, non-negative density in kg/m^3")
+            out = eqx.tree_at(lambda l: l.rho, out, rho)
+        return out
+
     def __check_init__(self):
-        _require("H", jnp.where(jnp.isinf(self.H), 1.0, self.H) if isinstance(self.H, jax.Array) else self.H,
+        # +inf is the half-space; -inf, NaN and H <= 0 are errors
+        _require("H", jnp.where(self.H == jnp.inf, 1.0, self.H) if isinstance(self.H, jax.Array) else self.H,
                  lambda v: v > 0, "a positive thickness in m (or jnp.inf for a half-space)")
         _require("rho", np.asarray(self.rho) if isinstance(self.rho, float) else self.rho, lambda v: v >= 0,
                  "a non-negative density in kg/m^3")

@@ -11,6 +11,7 @@ Every material is an :class:`equinox.Module` whose physical floats are pytree le
 from __future__ import annotations
 
 import abc
+from typing import ClassVar
 
 import equinox as eqx
 import jax
@@ -43,9 +44,13 @@ GAS_CONSTANT = 8.314462618  # J/(mol K)
 
 def _leaf(x):
     """Converter for physical fields: numbers and arrays become float64 arrays; anything else
-    (``None``, sentinels used by ``jax.tree_util`` / ``vmap`` axis specs) passes through."""
+    (``None``, sentinels used by ``jax.tree_util`` / ``vmap`` axis specs) passes through, and so
+    does a list that is not numeric or is ragged: the class's check then names the field."""
     if isinstance(x, (int, float, np.ndarray, np.generic, jax.Array, list, tuple)):
-        return as_float(x)
+        try:
+            return as_float(x)
+        except (ValueError, TypeError):
+            return x
     return x
 
 
@@ -57,11 +62,14 @@ def _i_times(x):
 
 def _require(name: str, value, predicate, message: str) -> None:
     """Raise ``ValueError`` at construction for a concrete (non-traced) invalid value."""
+    if isinstance(value, (str, bytes, list, tuple)):
+        raise ValueError(f"{name} must be a number or an array of numbers; got {value!r}")
     if isinstance(value, jax.core.Tracer) or not isinstance(value, (jax.Array, np.ndarray)):
         return
     v = np.asarray(value)
     if not np.all(np.isfinite(v)) or not np.all(predicate(v)):
-        raise ValueError(f"{name} must be {message}; got {v!r}")
+        shown = f"{float(v):g}" if v.ndim == 0 else np.array2string(v, precision=4, threshold=8)
+        raise ValueError(f"{name} must be {message}; got {shown}")
 
 
 class AbstractMaterial(eqx.Module):
@@ -79,7 +87,23 @@ class AbstractMaterial(eqx.Module):
 
     Callers use these methods (or the module-level functions of the same names); they never
     probe a material's fields.
+
+    Parameter rules: ``_rules`` lists ``(field, test, rule)``; they are checked at construction
+    for concrete values (``ValueError``) and inside compiled programs by :meth:`checked`
+    (``eqx.error_if``: works under jit/vmap/grad), so a traced negative time or modulus raises
+    instead of returning a wrong number.
     """
+
+    _rules: ClassVar[tuple] = ()
+
+    def __check_init__(self):
+        for name, test, rule in self._rules:
+            _require(name, getattr(self, name), test, rule)
+
+    def checked(self) -> "AbstractMaterial":
+        """This material with every parameter checked inside compiled programs (non-finite
+        values and values breaking the rules raise :class:`equinox.EquinoxRuntimeError`)."""
+        return _checked(self, self._rules)
 
     @abc.abstractmethod
     def complex_modulus(self, omega) -> jax.Array:
@@ -100,6 +124,15 @@ class AbstractMaterial(eqx.Module):
     @abc.abstractmethod
     def longest_time(self) -> jax.Array:
         """Slowest retardation time [s] (see the class docstring)."""
+
+
+def _checked(module, rules):
+    """``module`` with ``eqx.error_if`` on each ruled field (finite and ``test``)."""
+    for name, test, rule in rules:
+        v = getattr(module, name)
+        bad = ~(jnp.isfinite(v) & test(v))
+        module = eqx.tree_at(lambda m, name=name: getattr(m, name), module, eqx.error_if(v, bad, f"{name} must be {rule}"))
+    return module
 
 
 class AbstractShift(eqx.Module):
@@ -129,10 +162,9 @@ class StandardLinearSolid(AbstractMaterial):
     tau: jax.Array = eqx.field(converter=_leaf)
     f: jax.Array = eqx.field(converter=_leaf)
 
-    def __check_init__(self):
-        _require("G0", self.G0, lambda v: v > 0, "a positive shear modulus in Pa")
-        _require("tau", self.tau, lambda v: v > 0, "a positive time in s")
-        _require("f", self.f, lambda v: v >= 0, "non-negative")
+    _rules: ClassVar[tuple] = (("G0", lambda v: v > 0, "a positive, finite shear modulus in Pa"),
+                               ("tau", lambda v: v > 0, "a positive, finite time in s"),
+                               ("f", lambda v: v >= 0, "finite and >= 0 (f = 0: elastic)"))
 
     def to_prony(self) -> "GeneralizedMaxwell":
         """The equivalent one-term Prony series: ``G_inf = G0``, ``G_1 = G0 f``,
@@ -177,10 +209,11 @@ class GeneralizedMaxwell(AbstractMaterial):
     G: jax.Array = eqx.field(converter=_leaf)
     tau: jax.Array = eqx.field(converter=_leaf)
 
+    _rules: ClassVar[tuple] = (("G_inf", lambda v: v > 0, "a positive, finite shear modulus in Pa"),
+                               ("G", lambda v: v >= 0, "finite, non-negative moduli in Pa"),
+                               ("tau", lambda v: v > 0, "positive, finite times in s"))
+
     def __check_init__(self):
-        _require("G_inf", self.G_inf, lambda v: v > 0, "a positive shear modulus in Pa")
-        _require("G", self.G, lambda v: v >= 0, "non-negative moduli in Pa")
-        _require("tau", self.tau, lambda v: v > 0, "positive times in s")
         if hasattr(self.G, "shape") and hasattr(self.tau, "shape") and self.G.shape != self.tau.shape:
             raise ValueError(f"G and tau must have the same shape; got {self.G.shape} and {self.tau.shape}")
 
@@ -258,6 +291,12 @@ class AtTemperature(AbstractMaterial):
     material: AbstractMaterial
     shift: AbstractShift
     T: jax.Array = eqx.field(converter=_leaf)
+
+    _rules: ClassVar[tuple] = (("T", lambda v: v > 0, "a positive, finite temperature in K"),)
+
+    def checked(self):
+        out = _checked(self, self._rules)
+        return eqx.tree_at(lambda m: m.material, out, self.material.checked())
 
     def complex_modulus(self, omega):
         return self.material.complex_modulus(as_float(omega) * shift_factor(self.shift, self.T))

@@ -47,6 +47,10 @@ class AbstractMethod(eqx.Module):
 
     geometries = ("sphere", "cylinder")
 
+    #: Largest ``RollingResult.truncation`` (the method's own relative error estimate) of a
+    #: valid result; see each method.
+    max_truncation = 0.1
+
     @abc.abstractmethod
     def evaluate(self, material, layer, R, P, V, geometry) -> RollingResult:
         """``R_r`` at one point (checked float64 scalars ``R`` [m], ``P`` [N or N/m], ``V``

@@ -14,7 +14,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["RESULTS", "RollingResult", "REGIMES", "ValidityWarning", "first_failure", "full_model_result", "merge_results"]
+__all__ = ["RESULTS", "RollingResult", "REGIMES", "ValidityWarning", "check_validity", "first_failure",
+           "full_model_result", "merge_results", "MAX_CONTACT_RATIO"]
+
+#: Largest contact radius (sphere) or half-width (cylinder) over roller radius of a valid
+#: result: every model uses the parabolic profile ``h = r^2/(2R)``, whose error grows like
+#: ``(r/R)^2`` (the gap of a sphere at r = 0.3 R is 2.4 % below the parabola's), and the
+#: small-strain layer theory assumes ``r << R``.
+MAX_CONTACT_RATIO = 0.3
 
 #: Integer codes of ``RollingResult.regime``: which pressure model or method produced the value
 #: (an array, so it survives jit/vmap).
@@ -143,6 +150,33 @@ def first_failure(*checks) -> jax.Array:
     for failed, code in reversed(checks):
         out = jnp.where(failed, code, out)
     return out
+
+
+def check_validity(res: RollingResult, *, radius, speed, dissipative, max_truncation) -> RollingResult:
+    """``res`` with the checks that every method shares applied after its own (``result``
+    keeps the first failure):
+
+    * the value is finite (``nonfinite``);
+    * the method's own error estimate ``truncation`` is at most ``max_truncation``
+      (``truncation_too_large``);
+    * the contact is small against the roller, ``contact_radius <= MAX_CONTACT_RATIO R``
+      (``contact_too_large``);
+    * the value is positive (``nonpositive``): a rolling roller on a dissipative material has
+      ``R_r > 0``; exactly 0 is valid only at ``V = 0`` or for an elastic material.
+
+    ``radius`` [m] and ``speed`` [m/s] broadcast against the fields; works under jit/vmap.
+    """
+    value = res.value
+    finite = jnp.isfinite(value)
+    zero_ok = (jnp.asarray(speed) == 0) | ~jnp.asarray(dissipative)
+    nonpositive = (value < 0) | ((value == 0) & ~zero_ok)
+    checks = first_failure(
+        (~finite, RESULTS.nonfinite),
+        (~(res.truncation <= max_truncation), RESULTS.truncation_too_large),
+        (res.contact_radius > MAX_CONTACT_RATIO * jnp.asarray(radius), RESULTS.contact_too_large),
+        (nonpositive, RESULTS.nonpositive),
+    )
+    return eqx.tree_at(lambda r: r.result, res, merge_results(res.result, checks))
 
 
 def merge_results(first, second) -> jax.Array:

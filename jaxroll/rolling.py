@@ -17,16 +17,23 @@ import equinox as eqx
 import jax
 import numpy as np
 
-from ._numerics import as_float, roller_inputs
+from ._numerics import as_float, check_roller_values, roller_inputs
 from .layer import Layer
 from .material import AbstractMaterial
-from .methods import AbstractMethod, Direct, as_method
-from .result import RESULTS, RollingResult, ValidityWarning
+from .contact_size import check_geometry
+from .methods import AbstractMethod, Full, Slices, as_method
+from .result import RESULTS, RollingResult, ValidityWarning, check_validity
 
-__all__ = ["rolling_resistance", "rolling_resistance_grid", "DEFAULT_METHOD", "ValidityWarning"]
+__all__ = ["rolling_resistance", "rolling_resistance_grid", "DEFAULT_METHODS", "ValidityWarning"]
 
-#: The method used when none is given.
-DEFAULT_METHOD: AbstractMethod = Direct()
+#: The method used when none is given, per geometry: the most accurate method that costs under
+#: 1 s per point on 2 CPU cores (``benchmarks/default_method.py``; the README's method table).
+#: Cylinders: the full 2D model (exact contact, 0.8 % from the exact half-space solution, ~10 ms
+#: per point). Spheres: the SP slices (within +-3 % of the full 3D model at 1e-3..1e-2 m/s, up
+#: to +-15 % at 0.1-1 m/s, ~10-25 ms per point); the periodic full 3D model costs 0.1-0.35 s
+#: per point up to 0.1 m/s but seconds and gigabytes at 1 m/s (its period grows with V tau).
+#: The direct method (-15 to -40 % near and above the R_r peak) is for screening.
+DEFAULT_METHODS: dict[str, AbstractMethod] = {"sphere": Slices(algorithm="SP"), "cylinder": Full()}
 
 _AUTOGRID_TRACED = (
     "{method} sizes its grid (jr.AutoGrid) from concrete input values, but the inputs are traced "
@@ -49,8 +56,10 @@ def _check_models(material, layer):
 
 
 def _prepare(method, material, layer, radius, loads, speeds, geometry):
-    method = as_method(DEFAULT_METHOD if method is None else method)
+    check_geometry(geometry)
+    method = as_method(DEFAULT_METHODS[geometry] if method is None else method)
     _check_models(material, layer)
+    check_roller_values(radius, loads, speeds)
     method.check_geometry(geometry)
     if method.needs_resolution(geometry):
         if _traced(material, layer, radius, loads, speeds):
@@ -77,19 +86,28 @@ def _warn_if_invalid(res: RollingResult, where: str) -> None:
                       stacklevel=3)
 
 
+def _validated(method, material, res, R, V):
+    """The checks every method shares (:func:`jaxroll.result.check_validity`)."""
+    return check_validity(res, radius=R, speed=V, dissipative=material.glassy_modulus() > material.relaxed_modulus(),
+                          max_truncation=method.max_truncation)
+
+
 @eqx.filter_jit
 def _point(method, material, layer, radius, load, speed, geometry, throw):
     R, P, V = roller_inputs(radius, load, speed)
-    res = method.evaluate(material, layer, R, P, V, geometry)
+    material, layer = material.checked(), layer.checked()
+    res = _validated(method, material, method.evaluate(material, layer, R, P, V, geometry), R, V)
     return _raise_on_failure(res) if throw else res
 
 
 @eqx.filter_jit
 def _grid(method, material, layer, radius, loads, speeds, geometry, throw):
     R = roller_inputs(radius, 1.0, 0.0)[0]
+    material, layer = material.checked(), layer.checked()
     loads = jax.vmap(lambda P: roller_inputs(1.0, P, 0.0)[1])(loads)
     speeds = jax.vmap(lambda V: roller_inputs(1.0, 1.0, V)[2])(speeds)
     res = method.evaluate_grid(material, layer, R, loads, speeds, geometry)
+    res = _validated(method, material, res, R, speeds[:, None])
     return _raise_on_failure(res) if throw else res
 
 
@@ -107,7 +125,7 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
         geometry: ``"sphere"`` or ``"cylinder"``.
         method: a method object (:class:`jaxroll.Direct`, :class:`jaxroll.Full`,
             :class:`jaxroll.Slices`) or a shortcut ``"direct"``, ``"full"``, ``"PD"``, ``"PP"``,
-            ``"SP"``; default :data:`DEFAULT_METHOD`. Under ``jit``/``vmap``/``grad`` a method
+            ``"SP"``; default ``DEFAULT_METHODS[geometry]`` (SP slices for spheres, the full 2D model for cylinders). Under ``jit``/``vmap``/``grad`` a method
             with a grid must be resolved first (``method.resolve(...)``).
         throw: raise if the result is not trustworthy (``result != RESULTS.successful``: a
             solver failure or a validity check; the message names the reason). With

@@ -538,7 +538,7 @@ def solve(material, layer: Layer, R, P, V, grid: FixedGrid, *, algorithm="SP", n
 
 def _result(s: SliceSolution, grid: FixedGrid, material, layer, R, P, V) -> RollingResult:
     a_est = estimate_contact_size(material, layer, R, middle_slice_load(material, layer, R, P), "cylinder")
-    ok = grid.period_ok(4.0 * a_est, V * material.longest_time(), 1)
+    ok = grid.period_ok(a_est, V * material.longest_time(), 1)
     return full_model_result(
         s.resistance, s.resistance_dissipation, s.contact_radius, layer.H,
         result=merge_results(s.result, first_failure((~ok, RESULTS.period_too_short))),

@@ -264,9 +264,9 @@ def test_public_result_and_bad_input():
     jitted = jax.jit(lambda G, v: _full(jr.StandardLinearSolid(G, TAU, F), half, P, v, method=method).value)
     # tolerance: rounding / solver tolerance (same grid, same contact set)
     assert float(jitted(G0, A0 / TAU)) == pytest.approx(float(res.value), rel=1e-9)
-    with pytest.raises(ValueError, match="load P must be positive"):  # eagerly, while sizing the grid
+    with pytest.raises(ValueError, match=r"load P \[N, or N/m for cylinders\] must be positive"):  # eagerly, while sizing the grid
         _full(mat, half, -P, 0.01)
-    with pytest.raises(Exception, match="load P must be positive"):  # under jit, with a fixed grid
+    with pytest.raises(Exception, match=r"load P \[N, or N/m for cylinders\] must be positive"):  # under jit, with a fixed grid
         jax.jit(lambda p: _full(mat, half, p, 0.01, method=method).value)(-P)
     with pytest.raises(ValueError, match="scalar"):
         _full(mat, half, jnp.asarray([P, P]), 0.01)

@@ -1,0 +1,186 @@
+"""`valid` is a promise: seeded random draws over the physical envelope, per method and geometry.
+
+Envelope (the users' range): G0 1e5..1e8 Pa, tau 1e-4..1e2 s, f 0.05..100, H 1e-5..0.1 m or a
+half-space, R 1e-3..1 m, V 1e-6..10 m/s, Hertz contact radius 1e-3..0.3 R (the load follows
+from it). Asserted for every draw: a valid result is finite and positive; where an exact or
+closed-form reference exists, a valid result agrees with it within the method's stated
+accuracy; under jit every forbidden input raises. The default suite runs a reduced count per
+method; ``-m slow`` the full counts.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxroll as jr
+from jaxroll.result import MAX_CONTACT_RATIO
+
+
+def draws(n, geometry, seed, *, halfspace_share=0.15):
+    """``n`` random points: dict of arrays (G0, tau, f, H, R, V, P)."""
+    rng = np.random.default_rng(seed)
+    logu = lambda lo, hi: 10 ** rng.uniform(np.log10(lo), np.log10(hi), n)  # noqa: E731
+    G0, tau, f = logu(1e5, 1e8), logu(1e-4, 1e2), logu(0.05, 100)
+    H = np.where(rng.uniform(size=n) < halfspace_share, np.inf, logu(1e-5, 0.1))
+    R, V = logu(1e-3, 1.0), logu(1e-6, 10.0)
+    r = logu(1e-3, 0.3) * R  # Hertz contact radius with G0 (E* = 4 G0)
+    P = 16 * G0 * r**3 / (3 * R) if geometry == "sphere" else np.pi * G0 * r**2 / R
+    return dict(G0=G0, tau=tau, f=f, H=H, R=R, V=V, P=P)
+
+
+def _direct_batch(d, geometry):
+    def one(G0, tau, f, H, R, V, P):
+        return jr.rolling_resistance(jr.StandardLinearSolid(G0, tau, f), jr.Layer(H), radius=R, load=P, speed=V,
+                                     geometry=geometry, method="direct", throw=False)
+
+    return jax.jit(jax.vmap(one))(*(jnp.asarray(d[k]) for k in ("G0", "tau", "f", "H", "R", "V", "P")))
+
+
+def _assert_valid_means_positive(res):
+    value, ok = np.asarray(res.value), np.asarray(res.valid)
+    bad = ok & ~(np.isfinite(value) & (value > 0))
+    assert not bad.any(), f"{bad.sum()} valid results are not finite and positive: {value[bad][:5]}"
+
+
+@pytest.mark.parametrize("geometry", ["sphere", "cylinder"])
+@pytest.mark.parametrize("n", [pytest.param(400, id="reduced"), pytest.param(10_000, id="full", marks=pytest.mark.slow)])
+def test_direct_valid_results_are_positive_and_match_the_closed_forms(geometry, n):
+    d = draws(n, geometry, seed=15 + (geometry == "cylinder"))
+    res = _direct_batch(d, geometry)
+    _assert_valid_means_positive(res)
+    ok = np.asarray(res.valid)
+    # contact radius <= 0.3 R for every valid result (the pressure model's radius)
+    assert np.all(np.asarray(res.contact_radius)[ok] <= MAX_CONTACT_RATIO * d["R"][ok])
+    assert ok.sum() > 0.3 * n  # the envelope is mostly inside the method's range
+    if geometry == "cylinder":
+        # oracle: the closed form of the stationary Hertz pressure on a half-space; tolerance:
+        # 10 x the quadrature's rtol (1e-4); the truncation estimate is an order-of-magnitude
+        # indicator (direct.py: single cases under-estimated ~3x), so it must bound the error
+        # within 10x, wherever the error matters against rtol (> 1e-6)
+        half = np.isinf(d["H"]) & ok
+        ref = np.array([float(jr.persson_cylinder_halfspace(jr.StandardLinearSolid(d["G0"][i], d["tau"][i], d["f"][i]),
+                                                            d["R"][i], d["P"][i], d["V"][i]))
+                        for i in np.flatnonzero(half)])
+        err = np.abs(np.asarray(res.value)[half] / ref - 1)
+        assert err.max() < 1e-3, f"worst {err.max():.2e}"
+        assert np.all(err <= 10 * np.asarray(res.truncation)[half] + 1e-6)
+
+
+def _full_points(d, geometry, method, k):
+    mat = jr.StandardLinearSolid(d["G0"][k], d["tau"][k], d["f"][k])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", jr.ValidityWarning)
+        try:
+            return jr.rolling_resistance(mat, jr.Layer(d["H"][k]), radius=d["R"][k], load=d["P"][k], speed=d["V"][k],
+                                         geometry=geometry, method=method, throw=False)
+        except ValueError as err:  # a grid that cannot be built (memory budget): a clear refusal is allowed
+            assert "memory" in str(err)
+            return None
+
+
+@pytest.mark.parametrize(
+    "geometry,method,n",
+    [
+        ("cylinder", "full", 12),
+        pytest.param("cylinder", "full", 300, marks=pytest.mark.slow),
+        ("sphere", "SP", 6),
+        pytest.param("sphere", "SP", 100, marks=pytest.mark.slow),
+        pytest.param("sphere", "PD", 100, marks=pytest.mark.slow),
+        pytest.param("sphere", "PP", 100, marks=pytest.mark.slow),
+    ],
+)
+def test_grid_methods_valid_results_are_positive(geometry, method, n):
+    # the full 2D model on a half-space also meets the exact viscoelastic solution
+    d = draws(n, geometry, seed=150 + n, halfspace_share=0.3)
+    # keep the automatic grids affordable: V tau / r <= 1e3 (the periodic grid grows with it)
+    r = (3 * d["P"] * d["R"] / (16 * d["G0"])) ** (1 / 3) if geometry == "sphere" else np.sqrt(
+        d["P"] * d["R"] / (np.pi * d["G0"]))
+    d["V"] = np.minimum(d["V"], 1e3 * r / d["tau"])
+    counts = {"valid": 0, "flagged": 0}
+    for k in range(n):
+        res = _full_points(d, geometry, method, k)
+        if res is None:
+            continue
+        _assert_valid_means_positive(res)
+        counts["valid" if bool(res.valid) else "flagged"] += 1
+        if geometry == "cylinder" and np.isinf(d["H"][k]) and bool(res.valid):
+            mat = jr.StandardLinearSolid(d["G0"][k], d["tau"][k], d["f"][k])
+            exact = float(jr.exact_cylinder_halfspace(mat, d["R"][k], d["P"][k], d["V"][k]).rolling_resistance)
+            # tolerance: the default grid's discretisation error (<= 1 % measured, docs: 0.8 %)
+            assert float(res.value) == pytest.approx(exact, rel=0.02)
+    assert counts["valid"] > 0
+
+
+# ------------------------------------------------------------------ checks under jit
+
+
+FORBIDDEN = [
+    ("tau", -0.25, "tau must be"), ("tau", 0.0, "tau must be"), ("f", -2.0, "f must be"), ("f", jnp.nan, "f must be"),
+    ("G0", -3e6, "G0 must be"), ("G0", jnp.inf, "G0 must be"), ("H", -0.03, "H must be"), ("H", -jnp.inf, "H must be"),
+    ("rho", -5.0, "rho must be"), ("P", jnp.inf, "load P"), ("R", jnp.inf, "radius R"), ("V", jnp.inf, "speed V"),
+]
+
+
+def _model(p, method, geometry="sphere"):
+    mat = jr.StandardLinearSolid(p["G0"], p["tau"], p["f"])
+    return jr.rolling_resistance(mat, jr.Layer(p["H"], rho=p["rho"]), radius=p["R"], load=p["P"], speed=p["V"],
+                                 geometry=geometry, method=method, throw=False).value
+
+
+BASE = dict(G0=3e6, tau=0.25, f=1.0, H=0.03, rho=0.0, R=0.02, P=100.0, V=0.01)
+
+
+@pytest.mark.parametrize("name,value,match", FORBIDDEN, ids=[f"{n}={v}" for n, v, _ in FORBIDDEN])
+def test_forbidden_inputs_raise_under_jit(name, value, match):
+    method = jr.Slices("SP", grid=jr.FixedGrid(2e-4, 80, period=0.1))
+    for m in ("direct", method):
+        p = {k: jnp.asarray(v) for k, v in BASE.items()}
+        run = jax.jit(lambda q, m=m: _model(q, m))
+        assert np.isfinite(float(run(p)))  # the base point runs
+        p[name] = jnp.asarray(value)
+        with pytest.raises(Exception, match=match):
+            jax.block_until_ready(run(p))
+
+
+def test_forbidden_inputs_raise_under_vmap_and_grad():
+    p = {k: jnp.asarray(v) for k, v in BASE.items()}
+    taus = jnp.asarray([0.25, -0.25])
+    with pytest.raises(Exception, match="tau must be"):
+        jax.block_until_ready(jax.vmap(lambda t: _model({**p, "tau": t}, "direct"))(taus))
+    with pytest.raises(Exception, match="f must be"):
+        jax.block_until_ready(jax.grad(lambda f: _model({**p, "f": f}, "direct"))(jnp.asarray(-2.0)))
+
+
+def test_contact_larger_than_0_3_R_is_flagged():
+    # regression: a contact radius of 3 R was returned valid by every method
+    mat, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(jnp.inf)
+    R = 0.02
+    P = 16 * 3e6 * (0.5 * R) ** 3 / (3 * R)  # Hertz radius R/2
+    for method in ("direct", "SP"):
+        with pytest.warns(jr.ValidityWarning, match="contact radius exceeds 0.3 R"):
+            res = jr.rolling_resistance(mat, layer, radius=R, load=P, speed=0.01, method=method, throw=False)
+        assert int(res.result) == jr.RESULTS.contact_too_large
+    with pytest.raises(Exception, match="contact radius exceeds 0.3 R"):
+        jr.rolling_resistance(mat, layer, radius=R, load=P, speed=0.01, method="direct")
+
+
+@pytest.mark.parametrize("kw,match", [(dict(G0="3e6"), "G0 must be a number"), (dict(tau=[0.1, [0.2]]), "tau must be"),
+                                      (dict(f="one"), "f must be a number")])
+def test_constructors_reject_strings_and_ragged_lists(kw, match):
+    with pytest.raises(ValueError, match=match):
+        jr.StandardLinearSolid(**{**dict(G0=3e6, tau=0.25, f=1.0), **kw})
+    with pytest.raises(ValueError, match="H must be a number"):
+        jr.Layer("0.03")
+
+
+def test_eager_holes_are_named_errors():
+    with pytest.raises(ValueError, match="H must be a positive thickness.*got -inf"):
+        jr.Layer(-jnp.inf)
+    with pytest.raises(ValueError, match=r"load P .* must be positive and finite; got inf"):
+        jr.rolling_resistance(jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(0.03), radius=0.02, load=np.inf,
+                              speed=0.01, method="direct")
