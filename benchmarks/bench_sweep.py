@@ -277,7 +277,7 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--strategies-only", action="store_true")
     ap.add_argument("--no-strategies", action="store_true")
-    ap.add_argument("--strategy-points", type=int, default=345, help="DESIGN sec. 6 used 345 x 5000")
+    ap.add_argument("--strategy-points", type=int, default=345, help="docs/design.md sec. 6 used 345 x 5000")
     ap.add_argument("--strategy-modes", type=int, default=5000)
     ap.add_argument("--strategy-chunks", default="1,8,64,256")
     ap.add_argument("--quick", action="store_true",

@@ -55,6 +55,6 @@ from .methods import AbstractMethod, Direct, Full, Slices
 from .result import RESULTS, RollingResult, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
 from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
-from .fit import DMAData, FitResult, IdentifiabilityWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv
+from .fit import DataWarning, DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv
 
 __version__ = "0.1.0"

@@ -6,6 +6,7 @@ import argparse
 import csv
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import equinox as eqx
@@ -16,17 +17,44 @@ from .methods import METHOD_NAMES
 __all__ = ["main"]
 
 
-def _positive(kind):
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``PROG: error: MESSAGE (see PROG --help)``, exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _number(kind, *, zero_ok=False):
+    """argparse type: a finite number, positive (or ``>= 0`` with ``zero_ok``)."""
+    rule = ">= 0" if zero_ok else "positive"
+
     def parse(text):
         try:
             v = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{kind}: expected a number, got {text!r}")
-        if not v > 0:
-            raise argparse.ArgumentTypeError(f"{kind}: must be positive, got {v}")
+        if not (np.isfinite(v) and (v >= 0 if zero_ok else v > 0)):
+            raise argparse.ArgumentTypeError(f"{kind}: must be finite and {rule}, got {text}")
         return v
 
     return parse
+
+
+def _positive(kind):
+    return _number(kind)
+
+
+def _nonnegative(kind):
+    return _number(kind, zero_ok=True)
+
+
+def _progress_args(p, default):
+    """``--progress`` / ``--quiet``: progress lines on stderr (default: ``default``)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--progress", dest="progress", action="store_true", default=default,
+                   help="progress lines on stderr (default: "
+                   + {True: "on", False: "off", None: "on for the grid methods"}[default] + ")")
+    g.add_argument("--quiet", dest="progress", action="store_false", help="no progress lines")
 
 
 def _demo(args) -> int:
@@ -76,9 +104,12 @@ def _method_args(p, *, fit=False):
     """The method and its configuration as options (SI units)."""
     g = p.add_argument_group("method", "the rolling-resistance method and its configuration (jaxroll.Direct, "
                              "jaxroll.Full, jaxroll.Slices)")
-    g.add_argument("--method", choices=list(METHOD_NAMES), default=_default_method_name(),
-                   help=f"direct (stationary pressure, [ZG] sec. 4), full (the full 2D/3D contact model), PD | PP | "
-                   f"SP (sphere from cylinder slices, [ZG] sec. 3); default {_default_method_name()}")
+    default = ("direct (the fit varies the material, so a grid method needs a fixed grid)" if fit else
+               "SP for spheres, full for cylinders (the most accurate under 1 s per point)")
+    g.add_argument("--method", choices=list(METHOD_NAMES), default=None,
+                   help=f"direct (stationary pressure, [ZG] sec. 4; fast, 15-40 %% low near the R_r peak), full "
+                   f"(the full 2D/3D contact model), PD | PP | SP (sphere from cylinder slices, [ZG] sec. 3); "
+                   f"default {default}")
     g.add_argument("--pressure", choices=["auto", "thick", "thin", "thin-compressible", "elastic"], default="auto",
                    help="stationary pressure model of --method direct (auto)")
     g.add_argument("--spacing", type=_positive("--spacing [m]"), default=None,
@@ -97,18 +128,18 @@ def _method_args(p, *, fit=False):
                    help="PD | PP | SP: odd number of slices (21)")
 
 
-def _default_method_name():
-    from .methods import Direct, Full, Slices
-    from .rolling import DEFAULT_METHOD
-
-    if isinstance(DEFAULT_METHOD, Slices):
-        return DEFAULT_METHOD.algorithm
-    return {Direct: "direct", Full: "full"}[type(DEFAULT_METHOD)]
+def _method_name(args, *, fit=False):
+    """``--method``, or the default: the front door's for the geometry (fits: direct)."""
+    if args.method is not None:
+        return args.method
+    return "direct" if fit else {"sphere": "SP", "cylinder": "full"}[args.geometry]
 
 
-def _method_from_args(args):
+def _method_from_args(args, *, fit=False):
     """The method object the options describe."""
     import jaxroll as jr
+
+    name = _method_name(args, fit=fit)
 
     if (args.spacing is None) != (args.window is None):
         raise ValueError("--spacing and --window describe a fixed grid together: give both (or neither, for the "
@@ -120,11 +151,11 @@ def _method_from_args(args):
     else:
         grid = jr.AutoGrid(cells_per_radius=args.cells_per_radius,
                            period="auto" if args.period is None else args.period, n_terms=args.n_terms)
-    if args.method == "direct":
+    if name == "direct":
         return jr.Direct(pressure=args.pressure, grid=grid)
-    if args.method == "full":
+    if name == "full":
         return jr.Full(grid=grid, edge_smoothing=args.edge_smoothing)
-    return jr.Slices(algorithm=args.method, n_slices=args.n_slices, grid=grid)
+    return jr.Slices(algorithm=name, n_slices=args.n_slices, grid=grid)
 
 
 def _fit(args) -> int:
@@ -155,15 +186,15 @@ def _fit(args) -> int:
     kw = {}
     if data is not None:
         kw = dict(speeds=data.speed, loads=data.load, measured=data.value, sigma=data.sigma)
-    method = _method_from_args(args)
+    method = _method_from_args(args, fit=True)
     if data is not None and method.needs_resolution(args.geometry):
-        raise ValueError(f"--method {args.method} computes on a grid, which a fit must keep fixed while the material "
+        raise ValueError(f"--method {_method_name(args, fit=True)} computes on a grid, which a fit must keep fixed while the material "
                          f"varies: give --spacing and --window (and --period), e.g. --spacing 2.5e-4 --window 55 "
                          f"--period 0.2")
     fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
                             geometry=args.geometry, method=method, free=free, dma=dma, shift=shift,
                             n_starts=args.starts, seed=args.seed, solver=args.solver,
-                            progress=args.method != "direct")  # grid methods: seconds per evaluation
+                            progress=args.progress or (args.progress is None and _method_name(args, fit=True) != "direct"))
     report = fit.report()
     (out / "fit_report.txt").write_text(report + "\n")
     params = {
@@ -200,9 +231,11 @@ def _floats(kind):
         try:
             vals = [float(x) for x in text.split(",") if x.strip()]
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{kind}: expected comma-separated numbers, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}")
         if not vals:
-            raise argparse.ArgumentTypeError(f"{kind}: no values given")
+            raise argparse.ArgumentTypeError("no values given")
+        if not all(np.isfinite(v) and v > 0 for v in vals):
+            raise argparse.ArgumentTypeError(f"values must be finite and positive, got {text}")
         return vals
 
     return parse
@@ -211,25 +244,38 @@ def _floats(kind):
 def _axis(text):
     """NAME=lo:hi:n[:log] or NAME=v1,v2,... -> (name, values)."""
     if "=" not in text:
-        raise argparse.ArgumentTypeError(f"--vary: expected NAME=lo:hi:n[:log] or NAME=v1,v2,..., got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected NAME=lo:hi:n[:log] or NAME=v1,v2,..., got {text!r}")
     name, spec = text.split("=", 1)
     name = name.strip()
     if name not in _SWEEP_NAMES:
-        raise argparse.ArgumentTypeError(f"--vary: unknown parameter {name!r}; choose from {sorted(_SWEEP_NAMES)}")
+        raise argparse.ArgumentTypeError(f"unknown parameter {name!r}; choose from {sorted(_SWEEP_NAMES)}")
     try:
         if ":" in spec:
             parts = spec.split(":")
+            if len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "log"):
+                raise ValueError
             lo, hi, n = float(parts[0]), float(parts[1]), int(parts[2])
-            log = len(parts) > 3 and parts[3] == "log"
-            vals = np.logspace(np.log10(lo), np.log10(hi), n) if log else np.linspace(lo, hi, n)
+            log = len(parts) == 4
         else:
             vals = np.array([float(x) for x in spec.split(",")])
     except (ValueError, IndexError):
-        raise argparse.ArgumentTypeError(f"--vary: cannot parse {text!r}; use NAME=lo:hi:n[:log] or NAME=v1,v2")
-    if np.any(vals <= 0) and name != "f":
-        raise argparse.ArgumentTypeError(f"--vary: {name} must be positive")
+        raise argparse.ArgumentTypeError(f"cannot parse {text!r}; use NAME=lo:hi:n[:log] or NAME=v1,v2")
+    if ":" in spec:
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi and n >= 2):
+            raise argparse.ArgumentTypeError(f"{name}: a range lo:hi:n needs finite lo < hi and n >= 2; "
+                                             f"got {spec!r}")
+        if log and lo <= 0:
+            raise argparse.ArgumentTypeError(f"{name}: a log range needs lo > 0; got {spec!r}")
+        vals = np.logspace(np.log10(lo), np.log10(hi), n) if log else np.linspace(lo, hi, n)
+    low, rule = _SWEEP_RULES.get(name, (0.0, "positive"))
+    if not np.all(np.isfinite(vals)) or np.any(vals < low) or (rule == "positive" and np.any(vals <= 0)):
+        raise argparse.ArgumentTypeError(f"{name} ({_SWEEP_NAMES[name]}): values must be finite and {rule}; "
+                                         f"got {spec!r}")
     return name, vals
 
+
+#: Parameters that may be zero (lower bound, rule); the others must be positive.
+_SWEEP_RULES = {"V": (0.0, ">= 0"), "f": (0.0, ">= 0")}
 
 _SWEEP_NAMES = {"V": "speed [m/s]", "P": "load [N or N/m]", "H": "thickness [m]", "G0": "shear modulus [Pa]",
                 "tau": "retardation time [s]", "f": "relaxation strength [-]", "R": "radius [m]"}
@@ -238,9 +284,9 @@ _SWEEP_NAMES = {"V": "speed [m/s]", "P": "load [N or N/m]", "H": "thickness [m]"
 def _model_args(p):
     p.add_argument("--G0", type=_positive("G0 [Pa]"), default=3e6, help="relaxed shear modulus [Pa] (3e6)")
     p.add_argument("--tau", type=_positive("tau [s]"), default=0.25, help="retardation time [s] (0.25)")
-    p.add_argument("--f", type=float, default=1.0, help="relaxation strength G'(inf)/G'(0) - 1 [-] (1)")
+    p.add_argument("--f", type=_nonnegative("f [-]"), default=1.0, help="relaxation strength G'(inf)/G'(0) - 1 [-] (1)")
     p.add_argument("--H", default="0.03", help="layer thickness [m] or 'inf' (0.03)")
-    p.add_argument("--rho", type=float, default=1000.0, help="layer density [kg/m^3] (1000)")
+    p.add_argument("--rho", type=_nonnegative("rho [kg/m^3]"), default=1000.0, help="layer density [kg/m^3] (1000)")
     p.add_argument("--radius", type=_positive("radius [m]"), default=0.02, help="roller radius [m] (0.02)")
     p.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
     _method_args(p)
@@ -268,8 +314,13 @@ def _curve(args) -> int:
     layer = jr.Layer(H=_thickness(args.H), rho=args.rho)
     speeds = np.logspace(np.log10(args.vmin), np.log10(args.vmax), args.n)
     loads = np.sort(np.asarray(args.loads))
-    res = jr.rolling_resistance_grid(mat, layer, radius=args.radius, loads=loads, speeds=speeds,
-                                     geometry=args.geometry, method=_method_from_args(args), throw=False)
+    if args.progress:
+        print(f"curve: {len(speeds)} speeds x {len(loads)} loads, method {_method_name(args)} (one compiled "
+              f"program: grid sizing, compilation, then every point)", file=sys.stderr, flush=True)
+    with warnings.catch_warnings():  # reported below, per reason, in CLI terms
+        warnings.simplefilter("ignore", jr.ValidityWarning)
+        res = jr.rolling_resistance_grid(mat, layer, radius=args.radius, loads=loads, speeds=speeds,
+                                         geometry=args.geometry, method=_method_from_args(args), throw=False)
     values, codes = np.asarray(res.value).T, np.asarray(res.result).T  # (loads, speeds)
     unit = "N" if args.geometry == "sphere" else "N/m"
     with open(out / "curve.csv", "w", newline="") as fh:
@@ -280,8 +331,9 @@ def _curve(args) -> int:
             for j, V in enumerate(speeds):
                 w.writerow([f"{V:.8g}", f"{P:.8g}", f"{values[i, j]:.8g}", int(codes[i, j] == 0),
                             jr.RESULTS.names[int(codes[i, j])]])
-    plot.plot_rolling_curves(speeds, loads, values, unit=unit,
-                             title=f"{args.geometry}, method {args.method}, H = {args.H} m", path=out / "curve.png")
+    _warn_invalid(codes, "curve")
+    plot.plot_rolling_curves(speeds, loads, values, unit=unit, valid=codes == 0,
+                             title=f"{args.geometry}, method {_method_name(args)}, H = {args.H} m", path=out / "curve.png")
     print(f"wrote {out / 'curve.csv'}, {out / 'curve.png'}  ({time.perf_counter() - t0:.1f} s)")
     return 0
 
@@ -319,7 +371,7 @@ def _sweep_cmd(args) -> int:
                                   method=method, throw=False)
         return r.value, r.result
 
-    values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=not args.quiet))
+    values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=args.progress))
     names = list(axes)
     with open(out / "sweep.csv", "w", newline="") as fh:
         w = csv.writer(fh)
@@ -329,6 +381,7 @@ def _sweep_cmd(args) -> int:
         for idx in np.ndindex(values.shape):
             w.writerow([f"{axes[n][i]:.8g}" for n, i in zip(names, idx)]
                        + [f"{values[idx]:.8g}", int(codes[idx] == 0), jr.RESULTS.names[int(codes[idx])]])
+    _warn_invalid(codes, "sweep")
     print(f"{values.size} points; wrote {out / 'sweep.csv'}  ({time.perf_counter() - t0:.1f} s)")
     return 0
 
@@ -336,20 +389,21 @@ def _sweep_cmd(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="jaxroll",
         description="Viscoelastic rolling resistance of rigid spheres and cylinders on layers. "
         "All quantities in SI units: lengths m, loads N (sphere) or N/m (cylinder), moduli Pa, "
         "times s, speeds m/s, densities kg/m^3.",
     )
     p.add_argument("--version", action="version", version=f"jaxroll {__version__}")
+    p.add_argument("--debug", action="store_true", help="show the Python traceback of an error")
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("demo", help="evaluate the paper's example material and layers, write plots")
     d.add_argument("--out", default="jaxroll-out", help="output folder (default: jaxroll-out)")
     d.add_argument("--G0", type=_positive("G0 [Pa]"), default=3e6, help="relaxed shear modulus [Pa] (3e6)")
     d.add_argument("--tau", type=_positive("tau [s]"), default=0.25, help="retardation time [s] (0.25)")
-    d.add_argument("--f", type=float, default=1.0, help="relaxation strength G'(inf)/G'(0) - 1 [-] (1)")
-    d.add_argument("--rho", type=float, default=1000.0, help="layer density [kg/m^3] (1000)")
+    d.add_argument("--f", type=_nonnegative("f [-]"), default=1.0, help="relaxation strength G'(inf)/G'(0) - 1 [-] (1)")
+    d.add_argument("--rho", type=_nonnegative("rho [kg/m^3]"), default=1000.0, help="layer density [kg/m^3] (1000)")
     d.add_argument("--speed", type=_positive("speed [m/s]"), default=0.1, help="rolling speed [m/s] (0.1)")
     d.set_defaults(func=_demo)
 
@@ -359,8 +413,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="loads, comma separated [N, or N/m for cylinders] (50,100,150)")
     c.add_argument("--vmin", type=_positive("--vmin [m/s]"), default=1e-4, help="lowest speed [m/s] (1e-4)")
     c.add_argument("--vmax", type=_positive("--vmax [m/s]"), default=1.0, help="highest speed [m/s] (1)")
-    c.add_argument("--n", type=int, default=23, help="number of log-spaced speeds (23)")
-    c.add_argument("--progress", action="store_true", help="progress line on stderr")
+    c.add_argument("--n", type=_count("--n"), default=23, help="number of log-spaced speeds (23)")
+    _progress_args(c, False)
     c.add_argument("--out", default="jaxroll-curve", help="output folder (jaxroll-curve)")
     c.set_defaults(func=_curve)
 
@@ -369,7 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "parameters keep their values (V = 0.01 m/s, P = 100 N unless varied).")
     _model_args(s_)
     s_.add_argument("--vary", type=_axis, action="append", required=True, help="grid axis, e.g. V=1e-4:1:23:log")
-    s_.add_argument("--quiet", action="store_true", help="no progress line")
+    _progress_args(s_, True)
     s_.add_argument("--out", default="jaxroll-sweep", help="output folder (jaxroll-sweep)")
     s_.set_defaults(func=_sweep_cmd)
 
@@ -381,17 +435,18 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--dma", help="DMA CSV (fitted jointly)")
     f.add_argument("--radius", type=_positive("radius [m]"), help="roller radius [m]")
     f.add_argument("--H", default="inf", help="layer thickness [m] or 'inf' (default inf)")
-    f.add_argument("--rho", type=float, default=0.0, help="layer density [kg/m^3] (default 0: no inertia)")
-    f.add_argument("--nu", type=float, default=0.5, help="Poisson's ratio (default 0.5)")
+    f.add_argument("--rho", type=_nonnegative("rho [kg/m^3]"), default=0.0, help="layer density [kg/m^3] (default 0: no inertia)")
+    f.add_argument("--nu", type=_nonnegative("nu [-]"), default=0.5, help="Poisson's ratio (default 0.5)")
     f.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
-    _method_args(f)
+    _method_args(f, fit=True)
     f.add_argument("--free", default="G0,tau,f", help="free parameters, comma separated (G0,tau,f[,H])")
     f.add_argument("--initial", type=_parse_initial, help="initial values, e.g. G0=1e6,tau=0.1,f=0.5 (SI)")
     f.add_argument("--wlf", help="WLF shift C1,C2[K],T_ref[K] for DMA at several temperatures, e.g. 8.86,101.6,293.15 "
                    "(add C1,C2 to --free to fit them)")
-    f.add_argument("--starts", type=int, default=5, help="number of starts spread over two decades (5)")
+    f.add_argument("--starts", type=_count("--starts"), default=5, help="number of starts spread over two decades (5)")
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--solver", choices=["lm", "lbfgs"], default="lm")
+    _progress_args(f, None)
     f.add_argument("--out", default="jaxroll-fit", help="output folder (default jaxroll-fit)")
     f.set_defaults(func=_fit)
 
@@ -404,8 +459,8 @@ def build_parser() -> argparse.ArgumentParser:
         "R_r against V per load for each method against the full 3D model (period 0.2 m, 0.25 mm cells, "
         "500 terms), the relative error against V and P, and a timing table in the form of the paper's "
         "Table 1 measured on this machine (compile time apart). Writes PNG figures, report.md, results.csv "
-        "and timing.csv into --out. Units SI (m, N, Pa, s). The full run takes 10-20 min on 2 CPU cores; "
-        "--quick about a minute or two.")
+        "and timing.csv into --out. Units SI (m, N, Pa, s). The full run is the paper's resolution (its "
+        "measured time on 2 CPU cores is in benchmarks/README.md); --quick is a reduced run for a first look.")
     r.add_argument("--quick", action="store_true",
                    help="reduced run: 7 speeds x 3 loads, 3D cells 0.5 mm / 250 terms, slices on 512 cells")
     r.add_argument("--out", default="jaxroll-reproduce", help="output folder (jaxroll-reproduce)")
@@ -416,6 +471,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "reference always runs)")
     r.add_argument("--speeds", type=_count("--speeds"), default=None, help="number of log-spaced speeds (23; quick 7)")
     r.add_argument("--loads", type=_count("--loads"), default=None, help="number of loads per case (15; quick 3)")
+    _progress_args(r, True)
     r.set_defaults(func=_reproduce)
     return p
 
@@ -456,7 +512,7 @@ def _reproduce(args) -> int:
     if over or args.cases or args.methods:
         settings = rp.dataclasses.replace(settings, label=settings.label + " (with command-line selections)")
     t0 = time.perf_counter()
-    rep = rp.reproduce(settings, args.out)
+    rep = rp.reproduce(settings, args.out, progress=sys.stderr if args.progress else None)
     print(rp.timing_table(rep))
     print()
     print(rp.accuracy_table(rep))
@@ -465,7 +521,35 @@ def _reproduce(args) -> int:
     return 0
 
 
+def _runtime_message(err) -> str:
+    """The message of a check that failed inside a compiled program (``eqx.error_if`` surfaces
+    as a ``JaxRuntimeError`` wrapping a callback traceback): its first line, or the error's."""
+    import re
+
+    m = re.search(r"EquinoxRuntimeError: ([^\n]+)", str(err))
+    return m.group(1).strip() if m else str(err).strip().splitlines()[0]
+
+
+def _cli_terms(message: str) -> str:
+    """A library message with its API names replaced by the command-line options."""
+    return message.replace("pressure='elastic'", "--pressure elastic").replace("the full model", "--method full")
+
+
+def _warn_invalid(codes, where) -> None:
+    """One stderr line per reason with the count of points outside their validity."""
+    import jaxroll as jr
+
+    codes = np.asarray(codes)
+    bad = codes[codes != jr.RESULTS.successful]
+    for c in np.unique(bad):
+        print(f"jaxroll {where}: warning: {int(np.sum(bad == c))} of {codes.size} points not valid ({jr.RESULTS.names[c]}): "
+              f"{_cli_terms(jr.RESULTS.message(c))}; they are marked valid=0 in the CSV", file=sys.stderr)
+
+
 def main(argv=None) -> int:
+    import matplotlib
+
+    matplotlib.use("Agg")  # the command line writes figures to files only
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "fit":
@@ -473,13 +557,22 @@ def main(argv=None) -> int:
             parser.error("fit: give a rolling-resistance CSV and/or --dma")
         if args.data and args.radius is None:
             parser.error("fit: rolling-resistance data need --radius [m]")
+    if args.command == "curve" and not args.vmin < args.vmax:
+        parser.error(f"curve: --vmin ({args.vmin:g} m/s) must be below --vmax ({args.vmax:g} m/s)")
+    import jax
+
     try:
         return args.func(args)
-    except ValueError as err:  # bad physical input: one clear line, no traceback
-        print(f"jaxroll {args.command}: error: {err}", file=sys.stderr)
-        return 2
-    except OSError as err:  # missing or unreadable input file, unwritable --out
-        print(f"jaxroll {args.command}: error: {err.strerror or err}: {err.filename or ''}".rstrip(": "), file=sys.stderr)
+    except (ValueError, OSError, jax.errors.JaxRuntimeError) as err:
+        if args.debug:
+            raise
+        if isinstance(err, OSError):  # missing or unreadable input file, unwritable --out
+            msg = f"{err.strerror or err}: {err.filename or ''}".rstrip(": ")
+        elif isinstance(err, jax.errors.JaxRuntimeError):  # a check inside the compiled program
+            msg = _runtime_message(err)
+        else:  # bad physical input: one clear line, no traceback
+            msg = str(err)
+        print(f"jaxroll {args.command}: error: {msg} (--debug for the traceback)", file=sys.stderr)
         return 2
 
 

@@ -53,6 +53,15 @@ class IdentifiabilityWarning(UserWarning):
     """The data do not constrain a parameter (large relative error or near-total correlation)."""
 
 
+class MisfitWarning(UserWarning):
+    """With measured sigma, the residuals are far larger than the errors: model error (or sigma
+    too small)."""
+
+
+class DataWarning(UserWarning):
+    """A data file has columns that are not used, or repeated points."""
+
+
 # ----------------------------------------------------------------------------------------
 # data
 
@@ -127,7 +136,7 @@ def _read_table(path, required, optional, kind):
     Blank lines and lines starting with ``#`` (comments, e.g. how the data were made) are
     skipped. Returns {column: SI numpy array}. Errors name the file line."""
     path = Path(path)
-    with open(path, newline="") as fh:
+    with open(path, newline="", encoding="utf-8-sig") as fh:  # utf-8-sig: spreadsheets write a BOM
         rows = [(i + 1, r) for i, r in enumerate(csv.reader(fh))
                 if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if len(rows) < 3:
@@ -138,6 +147,13 @@ def _read_table(path, required, optional, kind):
     missing = [c for c in required if c not in header]
     if missing:
         raise ValueError(f"{path}, line {hline}: missing column(s) {missing}; the header has {header}")
+    repeated = sorted({h for h in header if header.count(h) > 1})
+    if repeated:
+        raise ValueError(f"{path}, line {hline}: column name(s) {repeated} appear more than once")
+    unknown = [h for h in header if h not in required and h not in optional]
+    if unknown:
+        warnings.warn(f"{path}: column(s) {unknown} not used (a {kind} CSV has {required}, optional {optional}); "
+                      f"check the spelling", DataWarning, stacklevel=3)
     if len(units) != len(header):
         raise ValueError(f"{path}, line {uline}: the units row has {len(units)} entries for {len(header)} columns")
     out = {}
@@ -183,7 +199,17 @@ def read_rolling_csv(path) -> RollingData:
     (optional ``sigma``); second row units (``m/s``/``mm/s``/``km/h``; ``N``/``kN``/``N/m``;
     ``N``/``mN``...)."""
     t = _read_table(path, ["speed", "load", "rolling_resistance"], ["sigma"], "rolling-resistance")
+    _warn_repeated(path, np.stack([t["speed"], t["load"]], axis=1), "(speed, load)")
     return RollingData(t["speed"], t["load"], t["rolling_resistance"], t.get("sigma"))
+
+
+def _warn_repeated(path, keys, what):
+    """Warn about repeated measurement points (fitted as independent measurements)."""
+    _, counts = np.unique(keys, axis=0, return_counts=True)
+    n = int(np.sum(counts[counts > 1]))
+    if n:
+        warnings.warn(f"{path}: {n} rows share their {what} with another row; they are fitted as independent "
+                      f"measurements (average them, or give sigma, if they are repeats)", DataWarning, stacklevel=3)
 
 
 def read_dma_csv(path) -> DMAData:
@@ -191,11 +217,17 @@ def read_dma_csv(path) -> DMAData:
     ``loss_modulus`` (``Pa``/``kPa``/``MPa``/``GPa``), optional ``temperature`` (``K`` or
     ``degC``); second row units."""
     t = _read_table(path, ["frequency", "storage_modulus", "loss_modulus"], ["temperature"], "DMA")
+    keys = [t["frequency"]] + ([t["temperature"]] if "temperature" in t else [])
+    _warn_repeated(path, np.stack(keys, axis=1), "(frequency, temperature)" if len(keys) > 1 else "frequency")
     return DMAData(t["frequency"], t["storage_modulus"], t["loss_modulus"], t.get("temperature"))
 
 
 # ----------------------------------------------------------------------------------------
 # parameters <-> log vector
+
+
+#: The parameters of each material: the default free list of :func:`fit_material`.
+_DEFAULT_FREE = {StandardLinearSolid: ("G0", "tau", "f"), GeneralizedMaxwell: ("G_inf", "G", "tau")}
 
 
 def _get(model, name):
@@ -207,7 +239,9 @@ def _get(model, name):
             raise ValueError(f"free parameter {name!r} needs a WLF shift (shift=jr.WLF(...))")
         return getattr(shift, name)
     if not hasattr(material, name):
-        raise ValueError(f"free parameter {name!r} is not a field of {type(material).__name__}")
+        fields = _DEFAULT_FREE.get(type(material), ())
+        raise ValueError(f"free parameter {name!r} is not a field of {type(material).__name__}; its parameters are "
+                         f"{', '.join(fields)} (plus H, and C1, C2 of a WLF shift)")
     return getattr(material, name)
 
 
@@ -322,7 +356,12 @@ class FitResult:
         converged: True if the best start converged.
         residuals: weighted residuals at the optimum (rolling data first, then DMA).
         cost: ``0.5 * sum(residuals**2)``.
-        reduced_chi2: ``sum(residuals**2)/(n - k)``.
+        reduced_chi2: ``sum(residuals**2)/(n - k)``: a goodness-of-fit measure only when every
+            residual is weighted by a measured sigma (``sigma_mode``).
+        sigma_mode: ``"absolute"`` (sigma given, ``absolute_sigma=True``), ``"scaled"`` (sigma
+            given; the covariance is rescaled by the reduced chi^2) or ``"relative"`` (no sigma:
+            relative residuals, so the reduced chi^2 is the mean squared relative misfit, not
+            a test of the model).
         starts: list of ``(cost, converged)`` for every start, in the order tried.
         warnings: identifiability messages (also issued as :class:`IdentifiabilityWarning`).
         jacobian: Jacobian of ``residuals`` with respect to the log-parameters at the optimum
@@ -345,6 +384,7 @@ class FitResult:
     starts: list
     warnings: list
     jacobian: np.ndarray | None = None
+    sigma_mode: str = "relative"
 
     def report(self) -> str:
         """A plain-text fit report."""
@@ -354,8 +394,13 @@ class FitResult:
             for i, (vi, si, li, hi_) in enumerate(zip(np.ravel(v), np.ravel(s), np.ravel(lo), np.ravel(hi))):
                 label = n if np.ndim(v) == 0 else f"{n}[{i}]"
                 lines.append(f"{label:<16} {vi:<14.6g} {si:<14.4g} [{li:.6g}, {hi_:.6g}]")
-        lines.append(f"converged: {self.converged}; cost {self.cost:.6g}; reduced chi^2 {self.reduced_chi2:.4g}; "
-                     f"{len(self.residuals)} residuals; {sum(c for _, c in self.starts)}/{len(self.starts)} starts converged")
+        chi2_meaning = {"absolute": "residuals weighted by the given sigma; ~1 for a correct model",
+                        "scaled": "residuals weighted by the given sigma; ~1 for a correct model; intervals "
+                        "rescaled by it",
+                        "relative": "no sigma given: mean squared relative residual, not a test of the model"}
+        lines.append(f"converged: {self.converged}; cost {self.cost:.6g}; {len(self.residuals)} residuals; "
+                     f"{sum(c for _, c in self.starts)}/{len(self.starts)} starts converged")
+        lines.append(f"reduced chi^2 {self.reduced_chi2:.4g} ({chi2_meaning[self.sigma_mode]})")
         if len(self.names) > 1:
             lines.append("correlation (log-parameters):")
             lines.append("          " + " ".join(f"{n:>9}" for n in self.names))
@@ -567,7 +612,7 @@ def fit_material(
     radius=None,
     geometry="sphere",
     method="direct",
-    free=("G0", "tau", "f"),
+    free=None,
     sigma=None,
     dma: DMAData | None = None,
     dma_sigma=None,
@@ -601,7 +646,9 @@ def fit_material(
             multi-parameter full-model fits use ``jr.Full(grid, edge_smoothing=0.25)`` (0.25 at
             the paper's grid, 0.5 on coarser ones): the exact discrete R_r wiggles with the
             contact set and LM stalls on it (fitting/README.md).
-        free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``).
+        free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``);
+            default: the material's own parameters (``G0, tau, f`` for a standard linear solid,
+            ``G_inf, G, tau`` for a generalized Maxwell material).
         sigma: standard deviations of ``measured`` (default: ``|measured|``, i.e. relative).
         dma: :class:`DMAData` to fit jointly (or alone); ``dma_sigma``: ``(sigma', sigma'')``
             arrays (default relative).
@@ -634,6 +681,8 @@ def fit_material(
         raise ValueError(f"solver must be 'lm' or 'lbfgs', got {solver!r}")
     if not isinstance(initial, (StandardLinearSolid, GeneralizedMaxwell)):
         raise ValueError("initial must be a StandardLinearSolid or GeneralizedMaxwell")
+    if free is None:
+        free = _DEFAULT_FREE[type(initial)]
     have_rr = measured is not None
     if not have_rr and dma is None:
         raise ValueError("nothing to fit: give rolling-resistance data (speeds, loads, measured) and/or dma")
@@ -765,6 +814,17 @@ def fit_material(
         i += size
 
     messages = []
+    have_sigma = (rolling is None or rolling.sigma is not None) and (dma is None or dma_sigma is not None)
+    sigma_mode = ("absolute" if absolute_sigma else "scaled") if have_sigma else "relative"
+    if have_sigma and dof > 0:
+        from scipy.stats import chi2 as chi2_dist
+
+        p_value = float(chi2_dist.sf(chi2, dof))
+        if p_value < 1e-3:
+            messages.append(f"reduced chi^2 = {chi2 / dof:.3g} with the given sigma (probability {p_value:.1g} for a "
+                            f"correct model): the model does not describe the data within their errors (model "
+                            f"error, e.g. the direct method's stationary pressure, or sigma too small); the "
+                            f"parameters and intervals are those of the best approximation")
     sv = np.linalg.svd(J, compute_uv=False)
     if sv[-1] <= 1e-10 * sv[0]:
         messages.append("the Jacobian is (numerically) rank deficient: some parameter combination is not "
@@ -781,7 +841,7 @@ def fit_material(
                 messages.append(f"parameters {flat_names[a]!r} and {flat_names[b]!r} are almost fully correlated "
                                 f"({corr[a, b]:+.4f}): the data constrain only a combination of them")
     for m in messages:
-        warnings.warn(m, IdentifiabilityWarning, stacklevel=2)
+        warnings.warn(m, MisfitWarning if m.startswith("reduced chi^2") else IdentifiabilityWarning, stacklevel=2)
 
     return FitResult(
         material=material,
@@ -800,4 +860,5 @@ def fit_material(
         starts=starts,
         warnings=messages,
         jacobian=J,
+        sigma_mode=sigma_mode,
     )

@@ -1,17 +1,21 @@
-"""Figures (matplotlib, Agg backend; every function returns the Figure and optionally saves it)."""
+"""Figures (matplotlib): every function returns the Figure and optionally saves it (``path``).
+
+The module never chooses the matplotlib backend: in a notebook the figures show inline, in a
+script they follow the user's backend (the command line selects the file-only ``Agg`` backend
+for itself).
+"""
 
 from __future__ import annotations
 
 import math
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from . import layer as _layer  # noqa: E402
-from . import material as _material  # noqa: E402
+from . import layer as _layer
+from . import material as _material
 
 __all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
            "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "close"]
@@ -75,55 +79,82 @@ def plot_compliance(material, layers: dict, speed, q=None, path=None):
     return _save(fig, path)
 
 
-def plot_rolling_curves(speeds, loads, values, *, unit="N", reference=None, labels=("model", "reference"),
-                        title=None, path=None):
-    """R_r against speed (log axis), one curve per load. ``values`` has shape
-    ``(len(loads), len(speeds))``; ``reference`` (same shape, optional) is drawn as markers."""
-    speeds, values = np.asarray(speeds), np.asarray(values)
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+def _load_unit(unit):
+    """The load unit that goes with a rolling-resistance unit (N for spheres, N/m for cylinders)."""
+    return "N/m" if unit == "N/m" else "N"
+
+
+def _load_colorbar(fig, axes, loads, unit):
+    """A labelled colorbar for a family of curves coloured by load (viridis, low to high)."""
+    loads = np.asarray(loads, float)
+    lo, hi = float(loads.min()), float(loads.max())
+    sm = ScalarMappable(norm=Normalize(lo, hi if hi > lo else lo + 1.0), cmap="viridis")
+    cb = fig.colorbar(sm, ax=axes, pad=0.02)
+    cb.set_label(f"load P [{_load_unit(unit)}]")
+    if len(loads) <= 8:
+        cb.set_ticks(loads)
+    return cb
+
+
+def _load_colors(loads):
+    loads = np.asarray(loads, float)
+    lo, hi = float(loads.min()), float(loads.max())
     cmap = plt.get_cmap("viridis")
-    for i, P in enumerate(np.asarray(loads)):
-        c = cmap(i / max(1, len(loads) - 1))
-        ax.semilogx(speeds, values[i], color=c, label=f"P = {P:g}" if i in (0, len(loads) - 1) else None)
+    return [cmap((P - lo) / (hi - lo) if hi > lo else 0.0) for P in loads]
+
+
+def plot_rolling_curves(speeds, loads, values, *, unit="N", reference=None, labels=("model", "reference"),
+                        valid=None, title=None, path=None):
+    """R_r against speed (log axis), one curve per load, coloured by load (colorbar).
+
+    ``values`` [unit] has shape ``(len(loads), len(speeds))``; ``reference`` (same shape,
+    optional) is drawn as circles; ``valid`` (same shape, boolean, optional) marks the points
+    outside their method's validity with a red cross.
+    """
+    speeds, values = np.asarray(speeds), np.asarray(values)
+    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+    colors = _load_colors(loads)
+    for i in range(len(colors)):
+        ax.semilogx(speeds, values[i], color=colors[i])
         if reference is not None:
-            ax.semilogx(speeds, np.asarray(reference)[i], "o", ms=3, color=c, mfc="none")
-    ax.set(xlabel="speed V [m/s]", ylabel=f"rolling resistance R_r [{unit}]",
-           title=title or ("lines: " + labels[0] + (f", circles: {labels[1]}" if reference is not None else "")))
+            ax.semilogx(speeds, np.asarray(reference)[i], "o", ms=3, color=colors[i], mfc="none")
+    handles = [plt.Line2D([], [], color="0.3", label=labels[0])]
+    if reference is not None:
+        handles.append(plt.Line2D([], [], color="0.3", marker="o", ms=3, mfc="none", ls="", label=labels[1]))
+    if valid is not None and not np.all(valid):
+        bad = ~np.asarray(valid, bool)
+        ax.semilogx(np.broadcast_to(speeds, values.shape)[bad], values[bad], "x", color="red", ms=6)
+        handles.append(plt.Line2D([], [], color="red", marker="x", ls="",
+                                  label=f"not valid ({int(bad.sum())} points)"))
+    ax.set(xlabel="speed V [m/s]", ylabel=f"rolling resistance R_r [{unit}]", title=title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    ax.legend(handles=handles, fontsize=8)
+    _load_colorbar(fig, ax, loads, unit)
     return _save(fig, path)
 
 
 def plot_fit(speeds, loads, measured, fitted, *, unit="N", path=None):
-    """Measured (markers) and fitted (lines) rolling resistance against speed per load, and the
-    relative residuals."""
+    """Measured (circles) and fitted (lines) rolling resistance [unit] against speed [m/s], one
+    colour per load (colorbar), and the relative residuals [%]."""
     speeds, loads = np.asarray(speeds), np.asarray(loads)
     measured, fitted = np.asarray(measured), np.asarray(fitted)
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2), layout="constrained")
     ul = np.unique(loads)
-    cmap = plt.get_cmap("viridis")
-    for i, P in enumerate(ul):
+    for P, c in zip(ul, _load_colors(ul)):
         sel = loads == P
         order = np.argsort(speeds[sel])
-        c = cmap(i / max(1, len(ul) - 1))
         ax1.semilogx(speeds[sel][order], measured[sel][order], "o", ms=3, color=c, mfc="none")
-        ax1.semilogx(speeds[sel][order], fitted[sel][order], "-", color=c,
-                     label=f"P = {P:g}" if i in (0, len(ul) - 1) else None)
+        ax1.semilogx(speeds[sel][order], fitted[sel][order], "-", color=c)
         ax2.semilogx(speeds[sel][order], 100 * (measured[sel][order] / fitted[sel][order] - 1), ".", color=c)
-    ax1.set(xlabel="speed V [m/s]", ylabel=f"R_r [{unit}]", title="measured (o) and fitted (-)")
+    ax1.set(xlabel="speed V [m/s]", ylabel=f"rolling resistance R_r [{unit}]", title="measured and fitted")
+    ax1.legend(handles=[plt.Line2D([], [], color="0.3", marker="o", ms=3, mfc="none", ls="", label="measured"),
+                        plt.Line2D([], [], color="0.3", label="fitted")], fontsize=8)
     ax2.axhline(0, color="k", lw=0.8)
     ax2.set(xlabel="speed V [m/s]", ylabel="residual, measured/fitted - 1 [%]", title="relative residuals")
     for ax in (ax1, ax2):
         ax.grid(True, which="both", alpha=0.3)
-    ax1.legend(fontsize=8)
-    fig.tight_layout()
+    _load_colorbar(fig, [ax1, ax2], ul, unit)
     return _save(fig, path)
-
-
-def _load_colors(n):
-    cmap = plt.get_cmap("viridis")
-    return [cmap(i / max(1, n - 1)) for i in range(n)]
 
 
 def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N", title=None, path=None):
@@ -140,27 +171,29 @@ def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N
     n = max(1, len(estimates))
     ncol = min(n, 2)
     nrow = math.ceil(n / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 3.6 * nrow), squeeze=False, sharey=True)
-    colors = _load_colors(len(loads))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol + 1.0, 3.6 * nrow), squeeze=False, sharey=True,
+                             layout="constrained")
+    colors = _load_colors(loads)
     items = list(estimates.items()) or [("reference", None)]
     for k, (name, est) in enumerate(items):
         ax = axes.flat[k]
-        for i, P in enumerate(loads):
-            lab = f"P = {P:g} N" if i in (0, len(loads) - 1) else None
+        for i in range(len(loads)):
             ax.semilogx(speeds, reference[i], "o", ms=3, mfc="none", color=colors[i])
             if est is not None:
-                ax.semilogx(speeds, np.asarray(est)[i], "-", color=colors[i], label=lab)
+                ax.semilogx(speeds, np.asarray(est)[i], "-", color=colors[i])
         ax.set(title=name, xlabel="speed V [m/s]")
         ax.grid(True, which="both", alpha=0.3)
+        handles = [plt.Line2D([], [], color="0.3", marker="o", ms=3, mfc="none", ls="", label="reference")]
         if est is not None:
-            ax.legend(fontsize=7)
+            handles.insert(0, plt.Line2D([], [], color="0.3", label=name))
+        ax.legend(handles=handles, fontsize=7)
     for ax in axes[:, 0]:
         ax.set_ylabel(f"rolling resistance R_r [{unit}]")
     for ax in list(axes.flat)[len(items):]:
         ax.set_visible(False)
+    _load_colorbar(fig, [ax for ax in axes.flat if ax.get_visible()], loads, unit)
     if title:
         fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
     return _save(fig, path)
 
 
@@ -189,6 +222,18 @@ def plot_relative_error(speeds, loads, errors: dict, *, title=None, path=None):
     return _save(fig, path)
 
 
+def _cell_edges(x, *, log):
+    """Cell edges around the sample points ``x`` (sorted): midpoints (geometric on a log axis),
+    the outer cells as wide as their neighbours, and never below 0 on a linear axis."""
+    x = np.asarray(x, float)
+    if x.size == 1:
+        return np.array([x[0] / 1.5, x[0] * 1.5]) if log else np.array([max(0.0, x[0] - 0.5), x[0] + 0.5])
+    y = np.log(x) if log else x
+    mid = 0.5 * (y[1:] + y[:-1])
+    edges = np.concatenate([[y[0] - (mid[0] - y[0])], mid, [y[-1] + (y[-1] - mid[-1])]])
+    return np.exp(edges) if log else np.maximum(edges, 0.0)
+
+
 def plot_error_maps(speeds, loads, errors: dict, *, title=None, limit=None, path=None):
     """Relative error [%] over the speed x load grid, one panel per method, on a diverging
     colormap centred at 0 (red: the method overestimates, blue: underestimates).
@@ -205,8 +250,9 @@ def plot_error_maps(speeds, loads, errors: dict, *, title=None, limit=None, path
     lim = limit if limit is not None else max([float(np.nanmax(np.abs(v))) for v in vals] + [1e-3])
     norm = TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim)
     mesh = None
+    v_edges, p_edges = _cell_edges(speeds, log=True), _cell_edges(loads, log=False)
     for ax, (name, v) in zip(axes.flat, zip(errors, vals)):
-        mesh = ax.pcolormesh(speeds, loads, v, cmap="RdBu_r", norm=norm, shading="nearest")
+        mesh = ax.pcolormesh(v_edges, p_edges, v, cmap="RdBu_r", norm=norm)
         ax.set_xscale("log")
         ax.set(title=name, xlabel="speed V [m/s]")
     axes[0, 0].set_ylabel("load P [N]")

@@ -119,9 +119,9 @@ class Settings:
     label: str = "full (the paper's resolution)"
 
 
-#: The paper's resolution (about 10-20 min on 2 CPU cores).
+#: The paper's resolution (23 speeds x 15 loads, 0.25 mm cells, 500 terms).
 FULL = Settings()
-#: Reduced run (about a minute on 2 cores): 7 speeds x 3 loads, 3D cells 0.5 mm / 250 terms,
+#: Reduced run: 7 speeds x 3 loads, 3D cells 0.5 mm / 250 terms,
 #: slices on 512 cells with 11 slices.
 QUICK = Settings(n_speeds=7, n_loads=3, spacing=5e-4, n_terms=250, slice_cells=2**9, slice_window=80, n_slices=11,
                  label="quick (reduced: 7 speeds x 3 loads, 3D cells 0.5 mm / 250 terms, slices 512 cells / 11 slices)")

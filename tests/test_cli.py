@@ -31,8 +31,11 @@ def test_curve_matches_library(tmp_path):
     rows = rows[2:]
     assert len(rows) == 8
     V, P, val = (float(x) for x in rows[5][:3])
-    ref = jr.rolling_resistance(jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(H=0.03, rho=1000.0),
-                                radius=0.02, load=P, speed=V, throw=False)
+    # the default method (SP for spheres) on the grid the curve resolves over its whole envelope
+    mat, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(H=0.03, rho=1000.0)
+    method = jr.Slices("SP").resolve(mat, layer, radius=0.02, loads=[50.0, 100.0],
+                                     speeds=sorted({float(r[0]) for r in rows}))
+    ref = jr.rolling_resistance(mat, layer, radius=0.02, load=P, speed=V, method=method, throw=False)
     assert val == pytest.approx(float(ref.value), rel=1e-7)  # CSV keeps 8 significant digits
     assert rows[5][3:] == [str(int(ref.valid)), jr.RESULTS.names[int(ref.result)]]
 
@@ -72,7 +75,7 @@ def test_fit_from_csv(tmp_path):
 @pytest.mark.parametrize(
     "argv,match",
     [
-        (["curve", "--vmin", "-1"], "must be positive"),
+        (["curve", "--vmin", "-1"], "must be finite and positive"),
         (["sweep", "--vary", "X=1:2:3"], "unknown parameter 'X'"),
         (["fit", "nonexistent.csv"], "need --radius"),
         (["fit"], "give a rolling-resistance CSV"),
@@ -89,6 +92,52 @@ def test_bad_arguments_exit_2_with_message(argv, match, capsys):
         main(argv)
     assert exc.value.code == 2
     assert match in capsys.readouterr().err
+
+
+def _exit_code(argv):
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
+BAD_INPUTS = [  # (argv, the argument's name that the message must contain)
+    (["demo", "--G0", "-3e6"], "--G0"), (["demo", "--tau", "0"], "--tau"), (["demo", "--f", "-0.5"], "--f"),
+    (["demo", "--rho", "nan"], "--rho"), (["demo", "--speed", "inf"], "--speed"),
+    (["curve", "--loads=-10,50"], "--loads"), (["curve", "--loads", "0"], "--loads"),
+    (["curve", "--vmin", "1", "--vmax", "0.1"], "--vmin"), (["curve", "--vmax", "inf"], "--vmax"),
+    (["curve", "--n", "0"], "--n"), (["curve", "--H", "-0.01"], "H"), (["curve", "--H", "-inf"], "H"),
+    (["curve", "--H", "thick"], "--H"), (["curve", "--radius", "0"], "--radius"),
+    (["curve", "--method", "exact"], "--method"), (["curve", "--geometry", "cube"], "--geometry"),
+    (["sweep", "--vary", "V=1:-1:3:log"], "V"), (["sweep", "--vary", "V=1e-4:1:0:log"], "V"),
+    (["sweep", "--vary", "f=-0.5,1"], "f"), (["sweep", "--vary", "H=0,0.01"], "H"),
+    (["sweep", "--vary", "G0=nan,1e6"], "G0"), (["sweep", "--vary", "X=1,2"], "X"),
+    (["sweep", "--vary", "P=1:2"], "P"), (["sweep", "--vary", "V=0.1,1", "--tau", "-1"], "--tau"),
+    (["fit", "missing.csv", "--radius", "0.02"], "missing.csv"), (["fit", "--dma", "x.csv", "--starts", "0"], "--starts"),
+    (["fit", "d.csv", "--radius", "-1"], "--radius"), (["fit", "d.csv", "--radius", "0.02", "--nu", "-0.1"], "--nu"),
+    (["fit", "d.csv", "--radius", "0.02", "--initial", "G0=abc"], "--initial"),
+    (["reproduce", "--cases", "H3mm"], "--cases"), (["reproduce", "--speeds", "-2"], "--speeds"),
+    (["reproduce", "--methods", "XX"], "--methods"),
+]
+
+
+@pytest.mark.parametrize("argv,name", BAD_INPUTS, ids=[" ".join(a) for a, _ in BAD_INPUTS])
+def test_every_subcommand_rejects_bad_input_in_one_line(argv, name, tmp_path, capsys):
+    assert _exit_code([*argv, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert name in err and "error:" in err
+
+
+def test_checks_inside_compiled_programs_read_as_one_line():
+    import jax
+
+    from jaxroll.cli import _runtime_message
+
+    m, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(0.03)
+    with pytest.raises(jax.errors.JaxRuntimeError) as exc:
+        jax.jit(lambda P: jr.rolling_resistance(m, layer, radius=0.02, load=P, speed=0.01, method="direct").value)(-5.0)
+    assert _runtime_message(exc.value) == "load P [N, or N/m for cylinders] must be positive and finite"
 
 
 def test_bad_physical_input_is_one_line_error(tmp_path, capsys):
@@ -152,7 +201,7 @@ def test_method_options_build_the_method_objects():
     "argv,match",
     [
         (["--method", "exact"], "argument --method: invalid choice: 'exact'"),
-        (["--spacing", "-1"], "--spacing [m]: must be positive"),
+        (["--spacing", "-1"], "--spacing [m]: must be finite and positive"),
         (["--window", "0"], "--window: must be >= 1"),
         (["--pressure", "medium"], "argument --pressure: invalid choice"),
     ],

@@ -1,6 +1,8 @@
 """Every notebook in notebooks/ executes top to bottom (reduced resolution via
-JAXROLL_NOTEBOOK_QUICK=1) in a temporary folder; the source notebooks stay unexecuted."""
+JAXROLL_NOTEBOOK_QUICK=1) in a temporary folder, with the kernel's own (inline) matplotlib
+backend, and every cell that draws a figure shows it; the source notebooks stay unexecuted."""
 
+import re
 import shutil
 from pathlib import Path
 
@@ -26,8 +28,14 @@ def test_notebook_executes(path, tmp_path, monkeypatch):
     shutil.copy(path, work)
     nb = nbformat.read(work, as_version=4)
     monkeypatch.setenv("JAXROLL_NOTEBOOK_QUICK", "1")
-    monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel picks its inline backend, as for a user
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
     client.execute()
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if o.output_type == "error"]
     assert not errors
+    # a cell that draws (jaxroll.plot, plt.subplots / plt.figure) must show at least one image
+    draws = re.compile(r"\bplot\.plot_|plt\.(subplots|figure)\(")
+    for k, cell in enumerate(c for c in nb.cells if c.cell_type == "code"):
+        if draws.search(cell.source):
+            images = [o for o in cell.outputs if "image/png" in o.get("data", {})]
+            assert images, f"{path.name}, code cell {k}: draws a figure but shows no image"

@@ -102,8 +102,9 @@ REF = np.outer(P, V / (1 + V**2))
 def test_plot_method_comparison(tmp_path):
     fig = plot.plot_method_comparison(V, P, REF, {"PD": 1.1 * REF, "direct": 0.9 * REF}, title="t",
                                       path=tmp_path / "a.png")
-    axes = [ax for ax in fig.axes if ax.get_visible()]
+    axes = [ax for ax in fig.axes if ax.get_visible() and ax.get_title()]  # panels (the colorbar has no title)
     assert [ax.get_title() for ax in axes] == ["PD", "direct"]
+    assert any(ax.get_ylabel() == "load P [N]" for ax in fig.axes)  # the load colorbar, with units
     assert axes[0].get_xscale() == "log" and "R_r" in axes[0].get_ylabel()
     assert len(axes[0].get_lines()) == 2 * len(P)  # circles (reference) + lines per load
     np.testing.assert_allclose(axes[1].get_lines()[1].get_ydata(), 0.9 * REF[0])
