@@ -50,7 +50,7 @@ from .direct import QuadratureSettings
 from . import contact, cylinder, direct, slices, sphere3d  # noqa: F401  (the engines, as modules)
 
 # --- methods, grids, results and the front doors ------------------------------------------
-from .grids import AutoGrid, FixedGrid
+from .grids import AutoGrid, FixedGrid, memory_budget
 from .methods import AbstractMethod, Direct, Full, Slices
 from .result import RESULTS, RollingResult, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid

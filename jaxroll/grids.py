@@ -35,6 +35,8 @@ The sizing rules (one home for each):
 from __future__ import annotations
 
 import math
+import os
+import re
 
 import equinox as eqx
 import jax
@@ -48,7 +50,7 @@ __all__ = ["AutoGrid", "FixedGrid", "PERIOD_FACTOR", "union"]
 #: The period must exceed ``PERIOD_FACTOR max(contact size, V t_max)`` for the layer to recover
 #: between passes (docs/design.md section 3: measured on the exact 2D solution).
 PERIOD_FACTOR = 20.0
-MAX_SPHERE_CELLS = 2**13
+MAX_SPHERE_CELLS = 2**16  # the memory budget (check_memory) is the real limit
 MAX_LINE_CELLS = 2**21
 SPHERE_CELLS_PER_RADIUS = 12
 SPHERE_WINDOW_RADII = 1.25
@@ -69,6 +71,41 @@ def _concrete_float(name, x):
 def _even_cells(L, dx):
     n = max(2, int(round(L / dx)))
     return n + n % 2
+
+
+#: Working memory per 3D Fourier mode of the periodic kernel [bytes] (see FixedGrid.memory_estimate).
+BYTES_PER_MODE = 100
+
+
+def memory_budget() -> int:
+    """The most working memory [bytes] one model evaluation may plan for: the environment
+    variable ``JAXROLL_MEMORY_BUDGET`` (bytes, or with a suffix ``MB``/``GB``), else half of the
+    memory available now (``/proc/meminfo`` ``MemAvailable``; 4 GB where that is unknown)."""
+    text = os.environ.get("JAXROLL_MEMORY_BUDGET")
+    if text:
+        m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([KMGT]?)(i?B)?\s*", text, re.IGNORECASE)
+        try:
+            return int(float(m.group(1)) * 1024 ** "_KMGT".index(m.group(2).upper() or "_"))
+        except (AttributeError, ValueError):
+            raise ValueError(f"JAXROLL_MEMORY_BUDGET must be a size in bytes (or 8GB, 500MB); got {text!r}") from None
+    try:
+        with open("/proc/meminfo") as fh:
+            avail = next(int(line.split()[1]) * 1024 for line in fh if line.startswith("MemAvailable:"))
+    except (OSError, StopIteration, ValueError):
+        avail = 8 * 2**30
+    return avail // 2
+
+
+def check_memory(grid: "FixedGrid", ndim: int, what: str) -> None:
+    """``ValueError`` (what was asked, what it needs, what to change) when ``grid`` needs more
+    working memory than :func:`memory_budget` allows."""
+    need, budget = grid.memory_estimate(ndim), memory_budget()
+    if need > budget:
+        raise ValueError(
+            f"{what} on {grid} needs about {need / 2**30:.1f} GiB of working memory, above the budget of "
+            f"{budget / 2**30:.1f} GiB (half of the available memory; set JAXROLL_MEMORY_BUDGET to change it). "
+            f"Use a shorter period (an automatic period grows like 20 x V x the longest retardation time), a "
+            f"smaller n_terms, or a coarser spacing; or the direct method, which needs no grid.")
 
 
 class FixedGrid(eqx.Module):
@@ -129,8 +166,29 @@ class FixedGrid(eqx.Module):
         return self.period is not None
 
     def terms(self) -> int:
-        """The 3D Fourier cut-off: ``n_terms`` or the larger period cell count."""
+        """The 3D Fourier cut-off along the longer period: ``n_terms`` or its cell count."""
         return max(self.n_cells) if self.n_terms is None else self.n_terms
+
+    def axis_terms(self, n_terms=None) -> tuple:
+        """The 3D Fourier cut-off per axis ``(n_x, n_y)``: one cut-off wavelength
+        ``max(Lx, Ly)/n_terms`` on both axes (``n_terms`` default :meth:`terms`), so the mode
+        count grows like ``Lx Ly``, not like the square of the longer period."""
+        n = self.terms() if n_terms is None else int(n_terms)
+        big = max(self.n_cells)
+        return tuple(max(1, int(round(n * N / big))) for N in self.n_cells)
+
+    def memory_estimate(self, ndim) -> int:
+        """Working memory [bytes] of one model evaluation on this grid (``ndim = 2``: the 3D
+        periodic kernel; 1: a plane-strain line), before anything is allocated. Calibrated on
+        jax 0.9.2 CPU (peak resident memory above the process baseline, the compiled program's
+        temporary buffers): ~100 B per 3D Fourier mode and 64 B per period cell."""
+        if self.period is None:
+            return 64 * (2 * self.window) ** ndim
+        cells = int(np.prod(self.n_cells)) if ndim == 2 else self.n_cells[0]
+        if ndim == 2:
+            nx, ny = self.axis_terms()
+            return BYTES_PER_MODE * (2 * nx + 1) * (ny + 1) + 64 * cells
+        return 64 * cells
 
     def dynamic(self) -> "FixedGrid":
         """The grid with ``spacing`` and ``period`` as float64 arrays (traced by ``jit``)."""

@@ -32,7 +32,7 @@ import numpy as np
 
 from . import cylinder, direct, slices, sphere3d
 from .contact_size import check_geometry, estimate_contact_size
-from .grids import AutoGrid, FixedGrid
+from .grids import AutoGrid, FixedGrid, check_memory
 from .result import RollingResult
 
 __all__ = ["AbstractMethod", "Direct", "Full", "Slices", "as_method", "METHOD_NAMES"]
@@ -72,6 +72,20 @@ class AbstractMethod(eqx.Module):
     def needs_resolution(self, geometry) -> bool:
         """Whether an :class:`~jaxroll.grids.AutoGrid` must be sized from concrete inputs."""
         return False
+
+    def check_memory(self, geometry) -> None:
+        """``ValueError`` before anything is allocated when the (resolved) grid needs more
+        working memory than :func:`jaxroll.grids.memory_budget` allows."""
+        if self.uses_grid(geometry) and isinstance(self.grid, FixedGrid):
+            check_memory(self.grid, self.grid_ndim(geometry), type(self).__name__)
+
+    def uses_grid(self, geometry) -> bool:
+        """Whether an evaluation at ``geometry`` runs on ``self.grid``."""
+        return False
+
+    def grid_ndim(self, geometry) -> int:
+        """Dimension of the grid an evaluation at ``geometry`` uses (2: the 3D sphere kernel)."""
+        return 1
 
     def check_geometry(self, geometry) -> None:
         check_geometry(geometry)
@@ -141,6 +155,12 @@ class Direct(AbstractMethod):
     def needs_resolution(self, geometry):
         return self.pressure == "elastic" and isinstance(self.grid, AutoGrid)
 
+    def uses_grid(self, geometry):
+        return self.pressure == "elastic"
+
+    def grid_ndim(self, geometry):
+        return 2
+
     def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
         self.check_geometry(geometry)
         if not self.needs_resolution(geometry):
@@ -160,6 +180,9 @@ class _GridMethod(AbstractMethod):
 
     def needs_resolution(self, geometry):
         return isinstance(self.grid, AutoGrid)
+
+    def uses_grid(self, geometry):
+        return True
 
 
 class Full(_GridMethod):
@@ -192,6 +215,9 @@ class Full(_GridMethod):
             raise ValueError(f"Full.tol must be a number in (0, 1); got {self.tol!r}")
         if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)) or self.max_steps < 1:
             raise ValueError(f"Full.max_steps must be a positive integer; got {self.max_steps!r}")
+
+    def grid_ndim(self, geometry):
+        return 2 if geometry == "sphere" else 1
 
     def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
         self.check_geometry(geometry)

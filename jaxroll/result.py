@@ -152,28 +152,33 @@ def first_failure(*checks) -> jax.Array:
     return out
 
 
-def check_validity(res: RollingResult, *, radius, speed, dissipative, max_truncation) -> RollingResult:
+def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipative, max_truncation) -> RollingResult:
     """``res`` with the checks that every method shares applied after its own (``result``
     keeps the first failure):
 
     * the value is finite (``nonfinite``);
     * the method's own error estimate ``truncation`` is at most ``max_truncation``
       (``truncation_too_large``);
-    * the contact is small against the roller, ``contact_radius <= MAX_CONTACT_RATIO R``
-      (``contact_too_large``);
+    * the contact is small against the roller, ``contact_size <= MAX_CONTACT_RATIO R``
+      (``contact_too_large``), with the stationary estimate of every method alike (relaxed
+      modulus: the largest contact; the slices' eq.-2 radius is the geometric chord, not it);
     * the value is positive (``nonpositive``): a rolling roller on a dissipative material has
-      ``R_r > 0``; exactly 0 is valid only at ``V = 0`` or for an elastic material.
+      ``R_r > 0``. At ``V = 0`` or on an elastic material the true ``R_r`` is 0 and the value
+      (round-off of either sign) is not checked for sign or truncation.
 
-    ``radius`` [m] and ``speed`` [m/s] broadcast against the fields; works under jit/vmap.
+    ``radius`` [m], ``speed`` [m/s] and ``contact_size`` [m] broadcast against the fields;
+    works under jit/vmap.
     """
     value = res.value
     finite = jnp.isfinite(value)
-    zero_ok = (jnp.asarray(speed) == 0) | ~jnp.asarray(dissipative)
-    nonpositive = (value < 0) | ((value == 0) & ~zero_ok)
+    # no dissipation (V = 0, or an elastic material): the true R_r is 0, so the computed value
+    # is round-off of either sign and its relative error estimate means nothing
+    rolling = (jnp.asarray(speed) > 0) & jnp.asarray(dissipative)
+    nonpositive = rolling & (value <= 0)
     checks = first_failure(
         (~finite, RESULTS.nonfinite),
-        (~(res.truncation <= max_truncation), RESULTS.truncation_too_large),
-        (res.contact_radius > MAX_CONTACT_RATIO * jnp.asarray(radius), RESULTS.contact_too_large),
+        (rolling & ~(res.truncation <= max_truncation), RESULTS.truncation_too_large),
+        (contact_size > MAX_CONTACT_RATIO * jnp.asarray(radius), RESULTS.contact_too_large),
         (nonpositive, RESULTS.nonpositive),
     )
     return eqx.tree_at(lambda r: r.result, res, merge_results(res.result, checks))

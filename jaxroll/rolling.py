@@ -15,12 +15,13 @@ import warnings
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import as_float, check_roller_values, roller_inputs
 from .layer import Layer
 from .material import AbstractMaterial
-from .contact_size import check_geometry
+from .contact_size import check_geometry, estimate_contact_size
 from .methods import AbstractMethod, Full, Slices, as_method
 from .result import RESULTS, RollingResult, ValidityWarning, check_validity
 
@@ -65,6 +66,7 @@ def _prepare(method, material, layer, radius, loads, speeds, geometry):
         if _traced(material, layer, radius, loads, speeds):
             raise ValueError(_AUTOGRID_TRACED.format(method=type(method).__name__))
         method = method.resolve(material, layer, radius=radius, loads=loads, speeds=speeds, geometry=geometry)
+    method.check_memory(geometry)
     return method
 
 
@@ -86,17 +88,20 @@ def _warn_if_invalid(res: RollingResult, where: str) -> None:
                       stacklevel=3)
 
 
-def _validated(method, material, res, R, V):
-    """The checks every method shares (:func:`jaxroll.result.check_validity`)."""
-    return check_validity(res, radius=R, speed=V, dissipative=material.glassy_modulus() > material.relaxed_modulus(),
-                          max_truncation=method.max_truncation)
+def _validated(method, material, layer, res, R, P, V, geometry):
+    """The checks every method shares (:func:`jaxroll.result.check_validity`); ``P`` a scalar
+    or a 1D array of loads (the grid's second axis)."""
+    size_of = lambda p: estimate_contact_size(material, layer, R, p, geometry)  # noqa: E731
+    size = size_of(P) if jnp.ndim(P) == 0 else jax.vmap(size_of)(P)
+    return check_validity(res, radius=R, speed=V, contact_size=size, max_truncation=method.max_truncation,
+                          dissipative=material.glassy_modulus() > material.relaxed_modulus())
 
 
 @eqx.filter_jit
 def _point(method, material, layer, radius, load, speed, geometry, throw):
     R, P, V = roller_inputs(radius, load, speed)
     material, layer = material.checked(), layer.checked()
-    res = _validated(method, material, method.evaluate(material, layer, R, P, V, geometry), R, V)
+    res = _validated(method, material, layer, method.evaluate(material, layer, R, P, V, geometry), R, P, V, geometry)
     return _raise_on_failure(res) if throw else res
 
 
@@ -107,7 +112,7 @@ def _grid(method, material, layer, radius, loads, speeds, geometry, throw):
     loads = jax.vmap(lambda P: roller_inputs(1.0, P, 0.0)[1])(loads)
     speeds = jax.vmap(lambda V: roller_inputs(1.0, 1.0, V)[2])(speeds)
     res = method.evaluate_grid(material, layer, R, loads, speeds, geometry)
-    res = _validated(method, material, res, R, speeds[:, None])
+    res = _validated(method, material, layer, res, R, loads, speeds[:, None], geometry)
     return _raise_on_failure(res) if throw else res
 
 

@@ -11,9 +11,12 @@ mode-modulus sign fix included) times the load-patch transform
 docstring of :mod:`jaxroll.contact`, eq. (1)) and applied by FFT: the dense compliance matrix of
 [ZG] sec. 2 is never formed.
 
-Fourier modes ``q = 2 pi (m_x/Lx, m_y/Ly)`` are kept for ``|m_x|, |m_y| <= n_terms``
-("500 terms" of the paper = ``n_terms=500``). Default: ``n_terms`` = the number of cells per
-period (the alias series is alternating in the image index, so its truncation error falls fast).
+Fourier modes ``q = 2 pi (m_x/Lx, m_y/Ly)`` are kept for ``|m_x| <= n_x``, ``|m_y| <= n_y``:
+one cut-off wavelength ``max(Lx, Ly)/n_terms`` on both axes (``FixedGrid.axis_terms``), so on
+the paper's square period ``|m_x|, |m_y| <= n_terms`` ("500 terms" = ``n_terms=500``), and on a
+period stretched along x by the material's memory the mode count grows like ``Lx Ly``, not
+``Lx^2``. Default ``n_terms``: the larger period cell count (the alias series is alternating in
+the image index, so its truncation error falls fast).
 
 Rolling resistance, two ways :
 
@@ -91,12 +94,13 @@ def _axis_modes(n, n_terms, last):
     return m[:, used].astype(float), keep[:, used]
 
 
-def _mode_grid(n_cells, period, n_terms):
+def _mode_grid(n_cells, period, terms):
     """Wavenumbers ``q_x, q_y`` [rad/m] of shape ``(Nx, 1, Ix, 1)`` / ``(1, Ny/2+1, 1, Iy)``,
-    and the truncated load-patch factor ``S`` (0 outside ``|m| <= n_terms``)."""
-    (Nx, Ny), (Lx, Ly) = n_cells, period
-    mx, kx = _axis_modes(Nx, n_terms, last=False)
-    my, ky = _axis_modes(Ny, n_terms, last=True)
+    and the truncated load-patch factor ``S`` (0 outside ``|m_x| <= n_x``, ``|m_y| <= n_y``;
+    ``terms = (n_x, n_y)``, see :meth:`jaxroll.grids.FixedGrid.axis_terms`)."""
+    (Nx, Ny), (Lx, Ly), (tx, ty) = n_cells, period, terms
+    mx, kx = _axis_modes(Nx, tx, last=False)
+    my, ky = _axis_modes(Ny, ty, last=True)
     Sx = np.where(kx, np.sinc(mx / Nx), 0.0)
     Sy = np.where(ky, np.sinc(my / Ny), 0.0)
     qx = (2.0 * jnp.pi / Lx) * mx[:, None, :, None]
@@ -114,8 +118,8 @@ class _LayerFactor(eqx.Module):
     qx: jax.Array
 
 
-def _layer_factor(layer, n_cells, period, n_terms):
-    qx, qy, S = _mode_grid(n_cells, period, n_terms)
+def _layer_factor(layer, n_cells, period, terms):
+    qx, qy, S = _mode_grid(n_cells, period, terms)
     q2 = qx * qx + qy * qy
     pos = q2 > 0
     q = jnp.where(pos, jnp.sqrt(where_safe(pos, q2, 1.0)), 0.0)
@@ -132,15 +136,15 @@ def _kernel_from_factor(factor: _LayerFactor, material, V):
     return K, K2
 
 
-def sphere_kernel(material, layer, speed, n_cells, period, n_terms):
+def sphere_kernel(material, layer, speed, n_cells, period, terms):
     """Fourier multipliers ``(K, K2)`` of the 3D periodic compliance on the cell grid.
 
-    ``K_r = sum_{m = r mod N, |m_k| <= n_terms} T(q_m) S(q_m)`` [m/Pa] (cell-to-centre
+    ``K_r = sum_{m = r mod N, |m_k| <= n_k} T(q_m) S(q_m)`` [m/Pa] (cell-to-centre
     compliance, ``rfftn`` layout, x = axis 0) and ``K2_r = sum q_x Im T(q_m) S(q_m)^2``
     [m/Pa per m] (dissipation), with ``T`` the 3D ``T_mn`` of
     :func:`jaxroll.layer.surface_compliance` and ``S = sinc(q_x dx/2) sinc(q_y dy/2)`` the
     load-patch transform. Same convention as :func:`jaxroll.contact.periodic_kernel`, but with
-    a symmetric truncation ``|m_k| <= n_terms`` (the paper's number of terms) and, for
+    a truncation ``|m_k| <= n_k`` (the paper's number of terms on its square period) and, for
     quasi-static layers, the factorisation ``T = T_1(q)/G_m``.
 
     Args:
@@ -148,14 +152,14 @@ def sphere_kernel(material, layer, speed, n_cells, period, n_terms):
         speed: rolling speed ``V`` [m/s].
         n_cells: static ``(Nx, Ny)`` (``Ny`` even).
         period: ``(Lx, Ly)`` [m].
-        n_terms: static mode cut-off per axis.
+        terms: static mode cut-off per axis ``(n_x, n_y)``.
     """
     n_cells = tuple(int(n) for n in n_cells)
     if n_cells[1] % 2:
         raise ValueError(f"the y cell count must be even; got {n_cells[1]}")
     if is_quasistatic(layer):
-        return _kernel_from_factor(_layer_factor(layer, n_cells, period, n_terms), material, speed)
-    qx, qy, S = _mode_grid(n_cells, period, n_terms)
+        return _kernel_from_factor(_layer_factor(layer, n_cells, period, terms), material, speed)
+    qx, qy, S = _mode_grid(n_cells, period, terms)
     T = surface_compliance(layer, material, qx, qy, speed)
     K = jnp.sum(T * S.astype(complex), axis=(2, 3))
     K2 = jnp.sum(qx * jnp.imag(T) * S * S, axis=(2, 3))
@@ -171,19 +175,19 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
         raise NotImplementedError("the full 3D model on an infinite layer (FixedGrid(period=None)) is not "
                                   "available yet: give a period")
     n_cells, period = grid.n_cells, grid.period
-    n_terms = grid.terms() if n_terms is None else int(n_terms)
+    terms = grid.axis_terms(n_terms)
     window = (grid.window, grid.window)
     if n_cells[1] % 2:
         raise ValueError(f"the y cell count must be even; got {n_cells[1]}")
     if is_quasistatic(layer):
-        factor = _layer_factor(layer, n_cells, period, n_terms)
+        factor = _layer_factor(layer, n_cells, period, terms)
 
         def build(V):
             K, K2 = _kernel_from_factor(factor, material, V)
             return _contact.periodic_window_kernel(K, K2, n_cells, period, window)
     else:
         def build(V):
-            K, K2 = sphere_kernel(material, layer, V, n_cells, period, n_terms)
+            K, K2 = sphere_kernel(material, layer, V, n_cells, period, terms)
             return _contact.periodic_window_kernel(K, K2, n_cells, period, window)
     return build
 
@@ -318,7 +322,7 @@ def static_pressure(material, layer: Layer, R, P, grid: FixedGrid, *, modulus: s
         if not is_quasistatic(layer):
             raise ValueError('modulus="glassy" needs a quasi-static layer (rho = 0)')
         # T = T_1/G(inf): a quasi-static layer at the glassy modulus (a real, elastic kernel)
-        f = _layer_factor(layer, grid.n_cells, grid.period, grid.terms())
+        f = _layer_factor(layer, grid.n_cells, grid.period, grid.axis_terms())
         Kr = jnp.sum(f.A, axis=(2, 3)) / glassy_modulus(material)
         K = jax.lax.complex(Kr, jnp.zeros_like(Kr))
         kernel = _contact.periodic_window_kernel(K, jnp.zeros_like(Kr), grid.n_cells, grid.period,
