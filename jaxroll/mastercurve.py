@@ -304,17 +304,19 @@ def _robust_scale(r):
     return 1.4826 * float(np.median(np.abs(r - np.median(r))))
 
 
-def _huber_polyfit(x, y, deg=2, c=2.5, iters=20):
-    """Polynomial fit by iteratively reweighted least squares with Huber weights (outliers,
-    e.g. a noisy first point of a sweep, lose their pull). Returns (coefficients, residuals)."""
+def _robust_polyfit(x, y, deg=2, c=2.5, iters=30):
+    """Polynomial fit by iteratively reweighted least squares, Huber weights first, then
+    Cauchy weights ``1 / (1 + (r / (c s))^2)`` (an outlier such as a sweep's low first point
+    loses its pull). Returns (coefficients, residuals, final weights)."""
     deg = min(deg, len(x) - 1)
     w = np.ones_like(y)
-    for _ in range(iters):
+    for it in range(iters):
         p = np.polyfit(x, y, deg, w=np.sqrt(w))
         r = y - np.polyval(p, x)
         s = max(_robust_scale(r), 1e-12)
-        w = np.minimum(1.0, c * s / np.maximum(np.abs(r), 1e-300))
-    return p, r
+        w = (np.minimum(1.0, c * s / np.maximum(np.abs(r), 1e-300)) if it < iters // 2
+             else 1.0 / (1.0 + (r / (c * s)) ** 2))
+    return p, r, w
 
 
 class _SetCurve:
@@ -323,9 +325,10 @@ class _SetCurve:
 
     def __init__(self, x, Y):
         self.lo, self.hi, self.offset = float(x.min()), float(x.max()), 0.0
-        fits = [_huber_polyfit(x, Y[:, k]) for k in range(Y.shape[1])]
+        fits = [_robust_polyfit(x, Y[:, k]) for k in range(Y.shape[1])]
         self.coef = [f[0] for f in fits]
         self.resid = np.stack([f[1] for f in fits], axis=1)
+        self.weight = np.stack([f[2] for f in fits], axis=1)  # per point: ~0 for outliers
 
     def shifted(self, d):
         """The same curve moved by ``d`` decades along ``x``."""
@@ -351,11 +354,12 @@ def _taper(x, lo, hi, margin):
 def _pair_residuals(d, xa, Ya, ca, xb, Yb, cb, noise, margin):
     """Weighted residuals (in noise units) between set ``a`` (placed, curve ``ca`` in reduced
     coordinates) and set ``b`` shifted by ``d`` decades: ``b``'s points against ``a``'s curve
-    and ``a``'s points against ``b``'s curve, over the overlap (tapered by ``margin``)."""
+    and ``a``'s points against ``b``'s curve, over the overlap (tapered by ``margin``); each
+    point keeps the robust weight of its own set's curve fit (outliers count ~0)."""
     wb = _taper(xb + d, ca.lo, ca.hi, margin)
     wa = _taper(xa - d, cb.lo, cb.hi, margin)
-    rb = (Yb - ca(xb + d)) / noise * np.sqrt(wb)[:, None]
-    ra = (Ya - cb(xa - d)) / noise * np.sqrt(wa)[:, None]
+    rb = (Yb - ca(xb + d)) / noise * np.sqrt(wb[:, None] * cb.weight)
+    ra = (Ya - cb(xa - d)) / noise * np.sqrt(wa[:, None] * ca.weight)
     return np.concatenate([rb.ravel(), ra.ravel()]), float(wa.sum() + wb.sum())
 
 
@@ -592,11 +596,15 @@ def prony_moduli(G_inf, G, tau, omega):
 
 
 @jax.jit
-def _prony_residuals(p, logw, log_gs, log_gl):
+def _prony_residuals(p, logw, log_gs, log_gl, log_tau_range):
     """Relative residuals ``log G'_fit - log G'_meas``, ``log G''_fit - log G''_meas`` for
-    parameters ``p = [log G_inf, log G_1..n, log tau_1..n]``."""
+    parameters ``p = [log G_inf, log G_1..n, u_1..n]``; the times stay inside the data's
+    range, ``log tau_i = lo + (hi - lo) sigmoid(u_i)`` (a term outside it would be fitted to
+    the ends' noise, with no modulus there to bound it)."""
     n = (p.shape[0] - 1) // 2
-    gs, gl = prony_moduli(jnp.exp(p[0]), jnp.exp(p[1 : n + 1]), jnp.exp(p[n + 1 :]), jnp.exp(logw))
+    lo, hi = log_tau_range[0], log_tau_range[1]
+    tau = jnp.exp(lo + (hi - lo) * jax.nn.sigmoid(p[n + 1 :]))
+    gs, gl = prony_moduli(jnp.exp(p[0]), jnp.exp(p[1 : n + 1]), tau, jnp.exp(logw))
     return jnp.concatenate([jnp.log(gs) - log_gs, jnp.log(gl) - log_gl])
 
 
@@ -605,7 +613,7 @@ _prony_jacobian = jax.jit(jax.jacfwd(_prony_residuals))
 
 def _refine(p, args, max_steps=200):
     """Levenberg-Marquardt on the jitted residual and its forward-mode Jacobian."""
-    r = np.asarray(_prony_residuals(p, *args))
+    r = np.asarray(_prony_residuals(jnp.asarray(p), *args))
     cost, mu = float(r @ r), 1e-3
     for _ in range(max_steps):
         J = np.asarray(_prony_jacobian(jnp.asarray(p), *args))
@@ -636,8 +644,10 @@ def fit_prony(master: MasterCurve, *, n_terms=None, refine=True) -> PronyFit:
     ``(G'_fit - G'_meas)/G'_meas`` and ``(G''_fit - G''_meas)/G''_meas`` (a log-weighted design:
     every decade of modulus counts alike). Terms NNLS sets to zero are dropped (the number of
     terms is minimised). With ``refine``, the kept terms' moduli and times are then refined
-    together by Levenberg-Marquardt on ``log G'``, ``log G''`` in ``log G_i, log tau_i``
-    (positive by construction; residual and Jacobian compiled with JAX).
+    together by Levenberg-Marquardt on ``log G'``, ``log G''`` in ``log G_i`` and the times
+    (positive by construction, kept within half a decade of the data's range: a term beyond it
+    would be fitted to the noise at the curve's ends with nothing to bound its modulus, e.g. an
+    unphysical glassy modulus); residual and Jacobian compiled with JAX.
 
     Args:
         master: :class:`MasterCurve`.
@@ -663,16 +673,18 @@ def fit_prony(master: MasterCurve, *, n_terms=None, refine=True) -> PronyFit:
     G_inf = max(float(x[0]), 1e-6 * float(np.min(gs)))
     keep = x[1:] > 1e-8 * float(np.sum(x[1:]))
     G, tau = x[1:][keep], tau[keep]
-    args = (jnp.asarray(np.log(w)), jnp.asarray(np.log(gs)), jnp.asarray(np.log(gl)))
-    p = np.concatenate([[math.log(G_inf)], np.log(G), np.log(tau)])
-    if refine and len(G):
-        p = _refine(p, args)
-        k = len(G)
-        order = np.argsort(p[k + 1 :])
-        p = np.concatenate([p[:1], p[1 : k + 1][order], p[k + 1 :][order]])
-    r = np.asarray(_prony_residuals(jnp.asarray(p), *args)).reshape(2, -1).T
+    # times as u = logit of their position in [lo - 0.5, hi + 0.5] decades (ln units below)
+    lo_e, hi_e = (lo - 0.5) * math.log(10), (hi + 0.5) * math.log(10)
+    args = (jnp.asarray(np.log(w)), jnp.asarray(np.log(gs)), jnp.asarray(np.log(gl)), jnp.asarray([lo_e, hi_e]))
+    t = (np.log(tau) - lo_e) / (hi_e - lo_e)
+    p = np.concatenate([[math.log(G_inf)], np.log(G), np.log(t) - np.log1p(-t)])
     k = len(G)
-    mat = GeneralizedMaxwell(G_inf=math.exp(p[0]), G=np.exp(p[1 : k + 1]), tau=np.exp(p[k + 1 :]))
+    if refine and k:
+        p = _refine(p, args)
+    r = np.asarray(_prony_residuals(jnp.asarray(p), *args)).reshape(2, -1).T
+    tau = np.exp(lo_e + (hi_e - lo_e) / (1.0 + np.exp(-p[k + 1 :])))
+    order = np.argsort(tau)
+    mat = GeneralizedMaxwell(G_inf=math.exp(p[0]), G=np.exp(p[1 : k + 1])[order], tau=tau[order])
     return PronyFit(material=mat, residuals=r, rms=float(np.sqrt(np.mean(r**2))), n_terms=k)
 
 
