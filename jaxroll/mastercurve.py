@@ -57,6 +57,8 @@ __all__ = [
     "write_ansys",
     "save_material",
     "load_material",
+    "ResistanceMap",
+    "resistance_map",
 ]
 
 # ----------------------------------------------------------------------------------------
@@ -796,3 +798,83 @@ def load_material(path):
         shift = (WLF(C1=s["C1"], C2=s["C2"], T_ref=s["T_ref"]) if s["law"] == "WLF"
                  else Arrhenius(activation_energy=s["activation_energy"], T_ref=s["T_ref"]))
     return mat, shift
+
+
+# ----------------------------------------------------------------------------------------
+# rolling-resistance maps
+
+
+@dataclasses.dataclass(frozen=True)
+class ResistanceMap:
+    """Rolling resistance over temperature x speed (:func:`resistance_map`).
+
+    Attributes:
+        temperatures [K], speeds [m/s]: the axes.
+        value: ``R_r`` [N for a sphere, N/m for a cylinder], shape ``(n_T, n_V)``.
+        valid: ``result == RESULTS.successful`` per point.
+        dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (``jax.grad``).
+        seconds: wall time of the compiled map (values and gradients, compilation excluded)
+            divided by the number of points [s].
+    """
+
+    temperatures: np.ndarray
+    speeds: np.ndarray
+    value: np.ndarray
+    valid: np.ndarray
+    dR_dT: np.ndarray
+    dR_dH: np.ndarray
+    seconds: float
+
+    def write_csv(self, path, *, unit="N"):
+        """One row per point: temperature [K], speed [m/s], R_r, dR/dT, dR/dH, valid."""
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid"])
+            w.writerow(["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"])
+            for i, T in enumerate(self.temperatures):
+                for j, V in enumerate(self.speeds):
+                    w.writerow([f"{T:.6g}", f"{V:.6g}", f"{self.value[i, j]:.8g}", f"{self.dR_dT[i, j]:.6g}",
+                                f"{self.dR_dH[i, j]:.6g}", int(self.valid[i, j])])
+
+
+def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",
+                   method="direct") -> ResistanceMap:
+    """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
+    ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
+    ``dR_r/dH`` from ``jax.grad``, all points in one compiled, vmapped program.
+
+    Args:
+        material: e.g. the :class:`PronyFit`'s ``material``; shift: its WLF/Arrhenius law.
+        layer: :class:`jaxroll.Layer` (its ``H`` [m] is the thickness differentiated).
+        radius [m], load [N, or N/m for a cylinder]; temperatures [K], speeds [m/s]: 1D axes.
+        geometry: ``"sphere"`` or ``"cylinder"``.
+        method: ``"direct"`` (default: milliseconds per point with any Prony spectrum) or a
+            method resolved over the whole map (``method.resolve(...)``; the periodic full
+            models need periods of ~20 V tau_max, impractical for spectra of 20 decades).
+    """
+    import time
+
+    from .layer import Layer
+    from .material import at_temperature
+    from .rolling import rolling_resistance
+
+    T = jnp.asarray(np.asarray(temperatures, float))
+    V = jnp.asarray(np.asarray(speeds, float))
+
+    def one(Ti, Vi, H):
+        lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
+        r = rolling_resistance(at_temperature(material, shift, Ti), lay, radius=radius, load=load, speed=Vi,
+                               geometry=geometry, method=method, throw=False)
+        return r.value, r.valid
+
+    def value_and_grads(Ti, Vi, H):
+        (v, ok), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
+        return v, ok, g[0], g[1]
+
+    grid = jax.jit(jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None)))
+    H = jnp.asarray(layer.H)
+    jax.block_until_ready(grid(T, V, H))  # compile
+    t0 = time.perf_counter()
+    v, ok, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
+    seconds = (time.perf_counter() - t0) / v.size
+    return ResistanceMap(np.asarray(T), np.asarray(V), v, ok.astype(bool), dT, dH, seconds)

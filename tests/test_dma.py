@@ -349,3 +349,33 @@ def test_peer_pyvisco(shipped):
     ps, pl = pv_moduli(wm)
     pv_rms_loss = np.sqrt(np.mean(np.log(pl / (df_master["E_loss"].values * 1e6)) ** 2))
     assert np.sqrt(np.mean(pf.residuals[:, 1] ** 2)) < pv_rms_loss
+
+
+# ---------------------------------------------------------------------------------------- maps
+
+
+@pytest.mark.parametrize("geometry, load", [("sphere", 5.0), ("cylinder", 500.0)])
+def test_resistance_map_values_and_gradients(tmp_path, geometry, load):
+    """Each map point equals the front door's value at that temperature; dR/dT and dR/dH
+    agree with central finite differences of the front door (1e-4 relative)."""
+    mat = jr.StandardLinearSolid(G0=3e6, tau=0.25, f=1.0).to_prony()
+    wlf = jr.WLF(C1=8.86, C2=101.6, T_ref=293.15)
+    layer = jr.Layer(H=0.01)
+    Ts, Vs = np.array([283.15, 303.15]), np.array([1e-3, 3e-2])
+    m = jr.resistance_map(mat, wlf, layer, radius=0.01, load=load, temperatures=Ts, speeds=Vs, geometry=geometry)
+    assert m.value.shape == (2, 2) and m.valid.all() and m.seconds > 0
+
+    def rr(T, V, H):
+        return float(jr.rolling_resistance(jr.at_temperature(mat, wlf, T), jr.Layer(H=H), radius=0.01, load=load,
+                                           speed=V, geometry=geometry, method="direct").value)
+
+    for i, T in enumerate(Ts):
+        for j, V in enumerate(Vs):
+            assert math.isclose(m.value[i, j], rr(T, V, 0.01), rel_tol=1e-12)
+            fd_T = (rr(T + 0.01, V, 0.01) - rr(T - 0.01, V, 0.01)) / 0.02
+            fd_H = (rr(T, V, 0.01 * (1 + 1e-5)) - rr(T, V, 0.01 * (1 - 1e-5))) / 2e-7
+            assert math.isclose(m.dR_dT[i, j], fd_T, rel_tol=1e-4), (m.dR_dT[i, j], fd_T)
+            assert math.isclose(m.dR_dH[i, j], fd_H, rel_tol=1e-4), (m.dR_dH[i, j], fd_H)
+    m.write_csv(tmp_path / "map.csv")
+    table = np.genfromtxt(tmp_path / "map.csv", delimiter=",", skip_header=2)
+    np.testing.assert_allclose(table[:, 2].reshape(2, 2), m.value, rtol=1e-7)
