@@ -18,7 +18,8 @@ from . import layer as _layer
 from . import material as _material
 
 __all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
-           "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "close"]
+           "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "plot_master_fit",
+           "plot_resistance_map", "close"]
 
 
 def _save(fig, path):
@@ -297,4 +298,54 @@ def plot_pressure_map(x, y, pressure, *, contact=None, title=None, path=None):
     ax.set_aspect("equal")
     ax.set(xlabel="x [mm] (rolling toward +x)", ylabel="y [mm]", title=title or "3D sphere pressure")
     fig.colorbar(mesh, ax=ax, label="pressure p [MPa]")
+    return _save(fig, path)
+
+
+def plot_master_fit(master, prony, *, path=None):
+    """A master curve (points coloured by temperature set) with its Prony fit, and the fit's
+    relative residuals ``log(G_fit / G_meas)`` (``master``: :class:`jaxroll.MasterCurve`,
+    ``prony``: :class:`jaxroll.PronyFit`)."""
+    w = np.logspace(math.log10(master.omega.min()), math.log10(master.omega.max()), 400)
+    g = np.asarray(_material.complex_modulus(prony.material, w))
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
+    sc = ax1.scatter(master.omega, master.storage, c=master.set, s=9, cmap="viridis", label="G' measured")
+    ax1.scatter(master.omega, master.loss, c=master.set, s=9, cmap="viridis", marker="x", label="G'' measured")
+    ax1.loglog(w, g.real, "k-", lw=1.2, label=f"G' Prony ({prony.n_terms} terms)")
+    ax1.loglog(w, g.imag, "k--", lw=1.2, label="G'' Prony")
+    fig.colorbar(sc, ax=ax1, label="temperature set")
+    ax1.set(ylabel="shear modulus [Pa]", title=f"master curve at T_ref = {master.T_ref:.2f} K")
+    ax1.legend(fontsize=8)
+    ax2.semilogx(master.omega, prony.residuals[:, 0], ".", ms=4, label="storage")
+    ax2.semilogx(master.omega, prony.residuals[:, 1], "x", ms=4, label="loss")
+    ax2.axhline(0.0, color="k", lw=0.8)
+    ax2.set(xlabel="reduced angular frequency ω a_T [rad/s]", ylabel="log(G_fit / G_meas)",
+            title=f"residuals (rms {prony.rms:.3f})")
+    ax2.legend(fontsize=8)
+    for ax in (ax1, ax2):
+        ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
+    """Heat maps with contours of ``R_r(T, V)`` and ``dR_r/dT`` (``rmap``:
+    :class:`jaxroll.mastercurve.ResistanceMap`); invalid points hatched out (masked)."""
+    T = rmap.temperatures - 273.15
+    V = rmap.speeds
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for ax, data, label in ((axes[0], rmap.value, f"R_r [{unit}]"), (axes[1], rmap.dR_dT, f"dR_r/dT [{unit}/K]")):
+        z = np.ma.masked_where(~rmap.valid, data)
+        if data is rmap.value:
+            im = ax.pcolormesh(V, T, z, shading="nearest", norm=plt.matplotlib.colors.LogNorm())
+            ax.contour(V, T, np.log10(np.where(rmap.valid, data, np.nan)), colors="w", linewidths=0.7)
+        else:
+            lim = float(np.nanmax(np.abs(z))) if z.count() else 1.0
+            im = ax.pcolormesh(V, T, z, shading="nearest", cmap="RdBu_r", vmin=-lim, vmax=lim)
+            ax.contour(V, T, np.where(rmap.valid, data, np.nan), levels=[0.0], colors="k", linewidths=0.8)
+        ax.set_xscale("log")
+        ax.set(xlabel="speed V [m/s]", ylabel="temperature [°C]")
+        fig.colorbar(im, ax=ax, label=label)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
     return _save(fig, path)
