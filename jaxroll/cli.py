@@ -527,6 +527,9 @@ def _runtime_message(err) -> str:
     import re
 
     m = re.search(r"EquinoxRuntimeError: ([^\n]+)", str(err))
+    if m is None:  # raised by eqx.filter_jit: the message is the last non-empty paragraph before the advice
+        lines = [line.strip() for line in str(err).splitlines() if line.strip().startswith("equinox.")]
+        m = re.search(r"EquinoxRuntimeError: (.+)", lines[-1]) if lines else None
     return m.group(1).strip() if m else str(err).strip().splitlines()[0]
 
 
@@ -563,12 +566,12 @@ def main(argv=None) -> int:
 
     try:
         return args.func(args)
-    except (ValueError, OSError, jax.errors.JaxRuntimeError) as err:
+    except (ValueError, OSError, jax.errors.JaxRuntimeError, eqx.EquinoxRuntimeError) as err:
         if args.debug:
             raise
         if isinstance(err, OSError):  # missing or unreadable input file, unwritable --out
             msg = f"{err.strerror or err}: {err.filename or ''}".rstrip(": ")
-        elif isinstance(err, jax.errors.JaxRuntimeError):  # a check inside the compiled program
+        elif isinstance(err, (jax.errors.JaxRuntimeError, eqx.EquinoxRuntimeError)):  # a check inside a compiled program
             msg = _runtime_message(err)
         else:  # bad physical input: one clear line, no traceback
             msg = str(err)

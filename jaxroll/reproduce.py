@@ -277,7 +277,9 @@ def _pressure_fields(s: Settings, log) -> dict:
 
     mat, layer = _material(), jr.Layer(5e-3)
     V, P = 0.01, 100.0
-    P_line = 3.0 * P / (4.0 * 4e-3)  # middle-slice load per length
+    # middle-slice load per length of [ZG] eq. 6, with the paper's contact radius 4.87 mm (H = 5 mm,
+    # 120 N; sec. 4.6): a half-width of 0.28 R, inside the small-strain range (0.3 R)
+    P_line = 3.0 * P / (4.0 * 4.87e-3)
     t = time.perf_counter()
     cyl = jr.rolling_resistance(mat, layer, radius=0.02, load=P_line, speed=V, geometry="cylinder", method="full")
     cyl0 = jr.rolling_resistance(mat, layer, radius=0.02, load=P_line, speed=0.0, geometry="cylinder",

@@ -125,9 +125,11 @@ def _eq37_numpy(layer, P, r_c, Lx, Ly, N, V, model):
     [("thick", jr.Layer(30e-3), 50.0, R), ("thin", jr.Layer(10e-6), 500.0, 2000.0),
      ("thin-compressible", jr.Layer(10e-6, nu=0.3), 500.0, 2000.0)],
 )
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # truncation_too_large: see the comment
 def test_periodic_matches_paper_formula(model, layer, P, Rr):
-    # oracle: the paper's eqs. 37/42/47 assembled in NumPy (scipy Bessel); rounding only
-    res = jr.rolling_resistance(MAT, layer, radius=Rr, load=P, speed=0.01,
+    # oracle: the paper's eqs. 37/42/47 assembled in NumPy (scipy Bessel); rounding only. 40 terms
+    # leave a large truncation at this speed (flagged truncation_too_large): the formula is checked
+    res = jr.rolling_resistance(MAT, layer, radius=Rr, load=P, speed=0.01, throw=False,
                                 method=jr.Direct(pressure=model, period=(0.2, 0.15), n_terms=40))
     ref = _eq37_numpy(layer, P, float(res.contact_radius), 0.2, 0.15, 40, 0.01, model)
     assert float(res.value) == pytest.approx(ref, rel=1e-11)
@@ -277,11 +279,12 @@ def test_gradients_jit_and_thin_and_cylinder():
     _fd_check(cyl, dict(tau=0.25, f=1.0, H=30e-3, R=0.02, P=1000.0, V=0.05))
 
 
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # 30 terms: flagged truncation, same formula
 def test_gradients_periodic():
     def per(p):
         mat = jr.StandardLinearSolid(p["G0"], 0.25, 1.0)
         return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=0.02, load=p["P"], speed=p["V"],
-                                     method=jr.Direct(period=0.2, n_terms=30)).value
+                                     method=jr.Direct(period=0.2, n_terms=30), throw=False).value
 
     _fd_check(per, dict(G0=3e6, H=30e-3, P=60.0, V=0.1))
 
