@@ -815,6 +815,7 @@ class ResistanceMap:
         dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (``jax.grad``).
         seconds: wall time of the compiled map (values and gradients, compilation excluded)
             divided by the number of points [s].
+        result: the :data:`jaxroll.RESULTS` code per point (why a point is not valid).
     """
 
     temperatures: np.ndarray
@@ -824,17 +825,23 @@ class ResistanceMap:
     dR_dT: np.ndarray
     dR_dH: np.ndarray
     seconds: float
+    result: np.ndarray | None = None
 
     def write_csv(self, path, *, unit="N"):
-        """One row per point: temperature [K], speed [m/s], R_r, dR/dT, dR/dH, valid."""
+        """One row per point: temperature [K], speed [m/s], R_r, dR/dT, dR/dH, valid and (when
+        known) the name of the point's :data:`jaxroll.RESULTS` code."""
+        from .result import RESULTS
+
+        extra = self.result is not None
         with open(path, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid"])
-            w.writerow(["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"])
+            w.writerow(["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid"] + ["result"] * extra)
+            w.writerow(["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"] + ["-"] * extra)
             for i, T in enumerate(self.temperatures):
                 for j, V in enumerate(self.speeds):
                     w.writerow([f"{T:.6g}", f"{V:.6g}", f"{self.value[i, j]:.8g}", f"{self.dR_dT[i, j]:.6g}",
-                                f"{self.dR_dH[i, j]:.6g}", int(self.valid[i, j])])
+                                f"{self.dR_dH[i, j]:.6g}", int(self.valid[i, j])]
+                               + [RESULTS.names[int(self.result[i, j])]] * extra)
 
 
 def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",
@@ -856,6 +863,7 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
 
     from .layer import Layer
     from .material import at_temperature
+    from .result import RESULTS
     from .rolling import rolling_resistance
 
     T = jnp.asarray(np.asarray(temperatures, float))
@@ -865,16 +873,16 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
         r = rolling_resistance(at_temperature(material, shift, Ti), lay, radius=radius, load=load, speed=Vi,
                                geometry=geometry, method=method, throw=False)
-        return r.value, r.valid
+        return r.value, r.result
 
     def value_and_grads(Ti, Vi, H):
-        (v, ok), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
-        return v, ok, g[0], g[1]
+        (v, code), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
+        return v, code, g[0], g[1]
 
     grid = jax.jit(jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None)))
     H = jnp.asarray(layer.H)
     jax.block_until_ready(grid(T, V, H))  # compile
     t0 = time.perf_counter()
-    v, ok, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
+    v, code, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
     seconds = (time.perf_counter() - t0) / v.size
-    return ResistanceMap(np.asarray(T), np.asarray(V), v, ok.astype(bool), dT, dH, seconds)
+    return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))

@@ -19,7 +19,7 @@ from . import material as _material
 
 __all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
            "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "plot_master_fit",
-           "plot_resistance_map", "close"]
+           "plot_resistance_map", "plot_shift_factors", "close"]
 
 
 def _save(fig, path):
@@ -335,7 +335,9 @@ def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for ax, data, label in ((axes[0], rmap.value, f"R_r [{unit}]"), (axes[1], rmap.dR_dT, f"dR_r/dT [{unit}/K]")):
         z = np.ma.masked_where(~rmap.valid, data)
-        if data is rmap.value:
+        if not z.count():  # no valid point: an empty panel (a log scale needs values)
+            im = ax.pcolormesh(V, T, z, shading="nearest")
+        elif data is rmap.value:
             im = ax.pcolormesh(V, T, z, shading="nearest", norm=plt.matplotlib.colors.LogNorm())
             ax.contour(V, T, np.log10(np.where(rmap.valid, data, np.nan)), colors="w", linewidths=0.7)
         else:
@@ -347,5 +349,25 @@ def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
         fig.colorbar(im, ax=ax, label=label)
     if title:
         fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_shift_factors(shifts, fits: dict, *, path=None):
+    """Shift factors ``log10 a_T`` against temperature with 95 % error bars and the fitted
+    laws (``shifts``: :class:`jaxroll.ShiftFactors`; ``fits``: ``{label: ShiftFit}``, e.g.
+    ``{"WLF": jr.fit_wlf(shifts), "Arrhenius": jr.fit_arrhenius(shifts)}``)."""
+    T = shifts.temperature
+    Tf = np.linspace(T.min(), T.max(), 200)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.errorbar(T - 273.15, shifts.log10_aT, yerr=1.96 * shifts.sigma, fmt="o", ms=4, capsize=2, color="k",
+                label="from the data (95 %)")
+    for label, fit in fits.items():
+        ax.plot(Tf - 273.15, np.asarray(fit.shift.log_shift(Tf)) / math.log(10.0), lw=1.2,
+                label=f"{label} (rms {fit.rms:.2f} decades)")
+    ax.axvline(shifts.T_ref - 273.15, color="0.6", lw=0.8, ls=":")
+    ax.set(xlabel="temperature [°C]", ylabel="log10 a_T", title=f"shift factors, T_ref = {shifts.T_ref:.2f} K")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, path)

@@ -364,6 +364,7 @@ def test_resistance_map_values_and_gradients(tmp_path, geometry, load):
     Ts, Vs = np.array([283.15, 303.15]), np.array([1e-3, 3e-2])
     m = jr.resistance_map(mat, wlf, layer, radius=0.01, load=load, temperatures=Ts, speeds=Vs, geometry=geometry)
     assert m.value.shape == (2, 2) and m.valid.all() and m.seconds > 0
+    assert m.result.shape == (2, 2) and np.all(m.result == jr.RESULTS.successful)
 
     def rr(T, V, H):
         return float(jr.rolling_resistance(jr.at_temperature(mat, wlf, T), jr.Layer(H=H), radius=0.01, load=load,
