@@ -427,10 +427,19 @@ def _material_cmd(args) -> int:
     sh = jr.fit_shift_factors(sw, T_ref=args.T_ref, moduli=args.shift_moduli)
     wlf, arr = jr.fit_wlf(sh), jr.fit_arrhenius(sh)
     master = jr.master_curve(sw, sh)
+    artifacts = jr.loss_artifacts(master)
+    weights = np.ones((len(master.omega), 2))
+    if args.drop_loss_artifacts:
+        weights[artifacts, 1] = 0.0
     say(f"material: Prony fit to {len(master.omega)} master-curve points")
-    pf = jr.fit_prony(master, n_terms=args.prony_terms)
+    pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights)
     mat = pf.material
-    rms_s, rms_l = (float(np.sqrt(np.mean(pf.residuals[:, k] ** 2))) for k in (0, 1))
+    rms_s, rms_l = (float(np.sqrt(np.mean(pf.residuals[weights[:, k] > 0, k] ** 2))) for k in (0, 1))
+    hz = ", ".join(f"{f:.4g}" for f in np.unique(np.round(master.frequency[artifacts] / (2 * np.pi), 6)))
+    found = (f"loss artifacts: {int(artifacts.sum())} loss values at {hz} Hz turn up in most sets ("
+             + ("left out of the Prony fit)" if args.drop_loss_artifacts else
+                "kept in the Prony fit; --drop-loss-artifacts leaves them out)")) if artifacts.any() else \
+        "loss artifacts: none found"
     G0 = float(mat.glassy_modulus())
     (c1_lo, c1_hi), (c2_lo, c2_hi) = wlf.ci95["C1"], wlf.ci95["C2"]
     ea_lo, ea_hi = arr.ci95["activation_energy"]
@@ -444,8 +453,9 @@ def _material_cmd(args) -> int:
         f"(95 % [{c2_lo:.4g}, {c2_hi:.4g}]); rms {wlf.rms:.3f} decades (the law written with the material)",
         f"Arrhenius: E_a = {arr.params['activation_energy']:.4g} J/mol (95 % [{ea_lo:.4g}, {ea_hi:.4g}]); "
         f"rms {arr.rms:.3f} decades",
+        found,
         f"Prony: {pf.n_terms} terms, tau {float(np.min(mat.tau)):.3g}..{float(np.max(mat.tau)):.3g} s; rms log "
-        f"residual {pf.rms:.4f} (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = {float(mat.G_inf):.4g} Pa, "
+        f"residual {pf.rms:.4f} of the values fitted (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = {float(mat.G_inf):.4g} Pa, "
         f"G_0 = {G0:.4g} Pa (shear)",
     ]
     info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
@@ -453,7 +463,10 @@ def _material_cmd(args) -> int:
             "WLF": {"C1": wlf.params["C1"], "C2": wlf.params["C2"], "ci95": wlf.ci95, "rms_decades": wlf.rms},
             "Arrhenius": {"activation_energy": arr.params["activation_energy"],
                           "ci95": arr.ci95["activation_energy"], "rms_decades": arr.rms},
-            "prony": {"n_terms": pf.n_terms, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l}}
+            "prony": {"n_terms": pf.n_terms, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+                      "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
+                                                   for f in master.frequency[artifacts]}),
+                      "loss_artifacts_left_out": bool(args.drop_loss_artifacts and artifacts.any())}}
     jr.save_material(out / "material.json", mat, wlf.shift, info=info)
     jr.save_material(out / "material.csv", mat, wlf.shift)
     jr.write_abaqus(mat, out / "material_abaqus.inp", shift=wlf.shift, poisson=args.fe_poisson)
@@ -631,6 +644,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "upturn at the top frequency)")
     mt.add_argument("--prony-terms", dest="prony_terms", type=_count("--prony-terms"), default=None,
                     help="relaxation times before pruning (default: one per decade of the master curve, plus one)")
+    mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
+                    help="leave out of the Prony fit the loss values at a measured frequency where the loss turns "
+                    "up in most sets (jaxroll.loss_artifacts: its second difference along each sweep above 4 robust "
+                    "standard deviations in >= 3/4 of the sets; the shipped file's 100 Hz); always reported")
     mt.add_argument("--fe-poisson", dest="fe_poisson", type=_poisson("--fe-poisson", incompressible=False),
                     default=0.49, help="instantaneous Poisson's ratio written to the Abaqus/ANSYS files (< 0.5; 0.49)")
     _progress_args(mt, False)

@@ -304,19 +304,25 @@ def plot_pressure_map(x, y, pressure, *, contact=None, title=None, path=None):
 def plot_master_fit(master, prony, *, path=None):
     """A master curve (points coloured by temperature set) with its Prony fit, and the fit's
     relative residuals ``log(G_fit / G_meas)`` (``master``: :class:`jaxroll.MasterCurve`,
-    ``prony``: :class:`jaxroll.PronyFit`)."""
+    ``prony``: :class:`jaxroll.PronyFit`); loss values the fit left out (weight 0) are circled."""
     w = np.logspace(math.log10(master.omega.min()), math.log10(master.omega.max()), 400)
     g = np.asarray(_material.complex_modulus(prony.material, w))
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
     sc = ax1.scatter(master.omega, master.storage, c=master.set, s=9, cmap="viridis", label="G' measured")
     ax1.scatter(master.omega, master.loss, c=master.set, s=9, cmap="viridis", marker="x", label="G'' measured")
+    out = np.zeros(len(master.omega), bool) if prony.weights is None else prony.weights[:, 1] == 0
+    if out.any():
+        ax1.scatter(master.omega[out], master.loss[out], s=60, facecolors="none", edgecolors="r",
+                    label="G'' left out of the fit")
     ax1.loglog(w, g.real, "k-", lw=1.2, label=f"G' Prony ({prony.n_terms} terms)")
     ax1.loglog(w, g.imag, "k--", lw=1.2, label="G'' Prony")
     fig.colorbar(sc, ax=ax1, label="temperature set")
     ax1.set(ylabel="shear modulus [Pa]", title=f"master curve at T_ref = {master.T_ref:.2f} K")
     ax1.legend(fontsize=8)
     ax2.semilogx(master.omega, prony.residuals[:, 0], ".", ms=4, label="storage")
-    ax2.semilogx(master.omega, prony.residuals[:, 1], "x", ms=4, label="loss")
+    ax2.semilogx(master.omega[~out], prony.residuals[~out, 1], "x", ms=4, label="loss")
+    if out.any():
+        ax2.semilogx(master.omega[out], prony.residuals[out, 1], "o", ms=6, mfc="none", mec="r", label="loss, left out")
     ax2.axhline(0.0, color="k", lw=0.8)
     ax2.set(xlabel="reduced angular frequency ω a_T [rad/s]", ylabel="log(G_fit / G_meas)",
             title=f"residuals (rms {prony.rms:.3f})")

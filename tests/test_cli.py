@@ -420,3 +420,22 @@ def test_map_full_method_resolves_one_grid_over_the_temperatures(tmp_path, capsy
         ref = jr.rolling_resistance(jr.at_temperature(mat, wlf, T), jr.Layer(H=0.01), radius=0.01, load=500.0,
                                     speed=V, geometry="cylinder", method="full")
         assert value == pytest.approx(float(ref.value), rel=0.01) and r[5:] == ["1", "successful"]
+
+
+def test_material_reports_and_optionally_drops_the_loss_artifacts(material_dir, tmp_path, capsys):
+    """The shipped file's 100 Hz loss values are reported either way; --drop-loss-artifacts
+    leaves them out of the Prony fit (the library's fit with weight 0 on them)."""
+    data, default = material_dir
+    line = "loss artifacts: 21 loss values at 100 Hz turn up in most sets"
+    assert line + " (kept in the Prony fit" in (default / "material_report.txt").read_text()
+    assert main(["material", str(data), "--T-ref", "298.15", "--drop-loss-artifacts", "--out", str(tmp_path)]) == 0
+    assert line + " (left out of the Prony fit)" in capsys.readouterr().out
+    sw = jr.read_dma_sweeps(data)
+    master = jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15))
+    weights = np.ones((len(master.omega), 2))
+    weights[jr.loss_artifacts(master), 1] = 0.0
+    want = jr.fit_prony(master, weights=weights).material
+    mat, _ = jr.load_material(tmp_path / "material.json")
+    np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
+    info = json.loads((tmp_path / "material.json").read_text())["info"]["prony"]
+    assert info["loss_artifacts_hz"] == [100.0] and info["loss_artifacts_left_out"] is True
