@@ -58,7 +58,7 @@ from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
 from .fit import DataWarning, DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv
 from . import mastercurve  # noqa: F401  (raw multi-temperature DMA -> master curve -> Prony/WLF)
 from .mastercurve import (DMASweeps, MasterCurve, PronyFit, ShiftFactors, ShiftFit, fit_arrhenius, fit_prony,  # noqa: F401
-                          fit_shift_factors, fit_wlf, load_material, master_curve, read_dma_sweeps,  # noqa: F401
+                          fit_shift_factors, fit_wlf, load_material, loss_artifacts, master_curve, read_dma_sweeps,  # noqa: F401
                           save_material, write_abaqus, write_ansys, ResistanceMap, resistance_map)  # noqa: F401
 
 __version__ = "0.1.0"

@@ -100,12 +100,13 @@ def _parse_initial(text):
     return out
 
 
-def _method_args(p, *, fit=False):
-    """The method and its configuration as options (SI units)."""
+def _method_args(p, *, fit=False, default=None):
+    """The method and its configuration as options (SI units); ``default``: the help's words for
+    a subcommand's own default (which it sets with ``set_defaults(method=...)``)."""
     g = p.add_argument_group("method", "the rolling-resistance method and its configuration (jaxroll.Direct, "
                              "jaxroll.Full, jaxroll.Slices)")
-    default = ("direct (the fit varies the material, so a grid method needs a fixed grid)" if fit else
-               "SP for spheres, full for cylinders (the most accurate under 1 s per point)")
+    default = default or ("direct (the fit varies the material, so a grid method needs a fixed grid)" if fit else
+                          "SP for spheres, full for cylinders (the most accurate under 1 s per point)")
     g.add_argument("--method", choices=list(METHOD_NAMES), default=None,
                    help=f"direct (stationary pressure, [ZG] sec. 4; fast, 15-40 %% low near the R_r peak), full "
                    f"(the full 2D/3D contact model), PD | PP | SP (sphere from cylinder slices, [ZG] sec. 3); "
@@ -386,6 +387,178 @@ def _sweep_cmd(args) -> int:
     return 0
 
 
+def _poisson(kind, *, incompressible=True):
+    """argparse type: a Poisson's ratio in [0, 0.5] (or [0, 0.5) without ``incompressible``)."""
+    nonnegative = _nonnegative(kind)
+
+    def parse(text):
+        v = nonnegative(text)
+        if v > 0.5 or (v == 0.5 and not incompressible):
+            raise argparse.ArgumentTypeError(f"{kind}: must be in [0, 0.5{']' if incompressible else ')'}, got {text}")
+        return v
+
+    return parse
+
+
+def _say(on):
+    """A progress printer: lines on stderr when ``on``."""
+    def say(message):
+        if on:
+            print(message, file=sys.stderr, flush=True)
+
+    return say
+
+
+def _material_cmd(args) -> int:
+    import jaxroll as jr
+    from jaxroll import plot
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    say = _say(args.progress)
+    say(f"material: reading {args.dma}")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", jr.DataWarning)
+        sw = jr.read_dma_sweeps(args.dma, poisson=args.poisson)
+    for w in caught:
+        print(f"jaxroll material: warning: {w.message}", file=sys.stderr)
+    say(f"material: shift factors of {sw.n_sets} temperature sets ({args.shift_moduli} moduli), WLF and Arrhenius fits")
+    sh = jr.fit_shift_factors(sw, T_ref=args.T_ref, moduli=args.shift_moduli)
+    wlf, arr = jr.fit_wlf(sh), jr.fit_arrhenius(sh)
+    master = jr.master_curve(sw, sh)
+    artifacts = jr.loss_artifacts(master)
+    weights = np.ones((len(master.omega), 2))
+    if args.drop_loss_artifacts:
+        weights[artifacts, 1] = 0.0
+    say(f"material: Prony fit to {len(master.omega)} master-curve points")
+    pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights)
+    mat = pf.material
+    rms_s, rms_l = (float(np.sqrt(np.mean(pf.residuals[weights[:, k] > 0, k] ** 2))) for k in (0, 1))
+    hz = ", ".join(f"{f:.4g}" for f in np.unique(np.round(master.frequency[artifacts] / (2 * np.pi), 6)))
+    found = (f"loss artifacts: {int(artifacts.sum())} loss values at {hz} Hz turn up in most sets ("
+             + ("left out of the Prony fit)" if args.drop_loss_artifacts else
+                "kept in the Prony fit; --drop-loss-artifacts leaves them out)")) if artifacts.any() else \
+        "loss artifacts: none found"
+    G0 = float(mat.glassy_modulus())
+    (c1_lo, c1_hi), (c2_lo, c2_hi) = wlf.ci95["C1"], wlf.ci95["C2"]
+    ea_lo, ea_hi = arr.ci95["activation_energy"]
+    report = [
+        f"DMA: {args.dma}: {len(sw.omega)} points in {sw.n_sets} temperature sets, {sw.set_temperature[0]:.2f}.."
+        f"{sw.set_temperature[-1]:.2f} K ({sw.source})",
+        f"shift factors: T_ref = {sh.T_ref:.2f} K (set {sh.reference}); log10 a_T {sh.log10_aT[0]:+.2f} at "
+        f"{sh.temperature[0]:.2f} K .. {sh.log10_aT[-1]:+.2f} at {sh.temperature[-1]:.2f} K; master curve "
+        f"{np.log10(master.omega[0]):.1f}..{np.log10(master.omega[-1]):.1f} decades of reduced omega [rad/s]",
+        f"WLF: C1 = {wlf.params['C1']:.4g} (95 % [{c1_lo:.4g}, {c1_hi:.4g}]), C2 = {wlf.params['C2']:.4g} K "
+        f"(95 % [{c2_lo:.4g}, {c2_hi:.4g}]); rms {wlf.rms:.3f} decades (the law written with the material)",
+        f"Arrhenius: E_a = {arr.params['activation_energy']:.4g} J/mol (95 % [{ea_lo:.4g}, {ea_hi:.4g}]); "
+        f"rms {arr.rms:.3f} decades",
+        found,
+        f"Prony: {pf.n_terms} terms, tau {float(np.min(mat.tau)):.3g}..{float(np.max(mat.tau)):.3g} s; rms log "
+        f"residual {pf.rms:.4f} of the values fitted (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = {float(mat.G_inf):.4g} Pa, "
+        f"G_0 = {G0:.4g} Pa (shear)",
+    ]
+    info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
+            float(sw.set_temperature[-1])], "T_ref": sh.T_ref,
+            "WLF": {"C1": wlf.params["C1"], "C2": wlf.params["C2"], "ci95": wlf.ci95, "rms_decades": wlf.rms},
+            "Arrhenius": {"activation_energy": arr.params["activation_energy"],
+                          "ci95": arr.ci95["activation_energy"], "rms_decades": arr.rms},
+            "prony": {"n_terms": pf.n_terms, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+                      "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
+                                                   for f in master.frequency[artifacts]}),
+                      "loss_artifacts_left_out": bool(args.drop_loss_artifacts and artifacts.any())}}
+    jr.save_material(out / "material.json", mat, wlf.shift, info=info)
+    jr.save_material(out / "material.csv", mat, wlf.shift)
+    jr.write_abaqus(mat, out / "material_abaqus.inp", shift=wlf.shift, poisson=args.fe_poisson)
+    jr.write_ansys(mat, out / "material_ansys.mac", shift=wlf.shift, poisson=args.fe_poisson)
+    with open(out / "shift_factors.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["temperature", "log10_aT", "sigma", "step_sigma", "wlf_log10_aT", "arrhenius_log10_aT",
+                    "reference"])
+        w.writerow(["K", "-", "-", "-", "-", "-", "-"])
+        laws = [np.asarray(f.shift.log_shift(sh.temperature)) / np.log(10.0) for f in (wlf, arr)]
+        for i, T in enumerate(sh.temperature):
+            w.writerow([f"{T:.8g}", *(f"{v:.8g}" for v in (sh.log10_aT[i], sh.sigma[i], sh.step_sigma[i],
+                                                             laws[0][i], laws[1][i])), int(i == sh.reference)])
+    fitted = np.asarray(jr.complex_modulus(mat, master.omega))
+    with open(out / "master_curve.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["reduced_omega", "storage", "loss", "temperature", "set", "prony_storage", "prony_loss"])
+        w.writerow(["rad/s", "Pa", "Pa", "K", "-", "Pa", "Pa"])
+        for k in range(len(master.omega)):
+            w.writerow([f"{master.omega[k]:.8g}", f"{master.storage[k]:.8g}", f"{master.loss[k]:.8g}",
+                        f"{sw.set_temperature[master.set[k]]:.6g}", int(master.set[k]), f"{fitted[k].real:.8g}",
+                        f"{fitted[k].imag:.8g}"])
+    plot.close(plot.plot_master_fit(master, pf, path=out / "master_curve.png"))
+    plot.close(plot.plot_shift_factors(sh, {"WLF": wlf, "Arrhenius": arr}, path=out / "shift_factors.png"))
+    (out / "material_report.txt").write_text("\n".join(report) + "\n")
+    written = ["material.json", "material.csv", "material_abaqus.inp", "material_ansys.mac", "shift_factors.csv",
+               "master_curve.csv", "master_curve.png", "shift_factors.png", "material_report.txt"]
+    print("\n".join(report))
+    print(f"wrote {', '.join(str(out / w) for w in written)}  ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _material_info(path):
+    """The ``info`` of a material JSON (``{}`` for a CSV or a file without it)."""
+    import json
+
+    path = Path(path)
+    return json.loads(path.read_text()).get("info") or {} if path.suffix.lower() == ".json" else {}
+
+
+def _map_cmd(args) -> int:
+    import jaxroll as jr
+    from jaxroll import plot
+    from jaxroll.grids import union
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    mat, shift = jr.load_material(args.material)
+    if shift is None:
+        raise ValueError(f"--material {args.material}: no shift law (WLF or Arrhenius) in the file; a map over "
+                         f"temperature needs one (jaxroll material writes the fitted WLF law)")
+    measured = _material_info(args.material).get("temperature_range")
+    T_ref = float(shift.T_ref)
+    tmin = args.tmin if args.tmin is not None else (measured[0] if measured else T_ref - 40.0)
+    tmax = args.tmax if args.tmax is not None else (measured[1] if measured else T_ref + 60.0)
+    if not tmin < tmax:
+        raise ValueError(f"--tmin ({tmin:g} K) must be below --tmax ({tmax:g} K)")
+    unit = "N" if args.geometry == "sphere" else "N/m"
+    load = args.load if args.load is not None else {"sphere": 10.0, "cylinder": 1e4}[args.geometry]
+    temperatures = np.linspace(tmin, tmax, args.n_temperatures)
+    speeds = np.logspace(np.log10(args.vmin), np.log10(args.vmax), args.n_speeds)
+    layer = jr.Layer(H=args.H, rho=args.rho, nu=args.nu)
+    name = _method_name(args)
+    method = _method_from_args(args)
+    if method.needs_resolution(args.geometry):  # one grid for the map: the union of the coldest and hottest
+        method = eqx.tree_at(lambda m: m.grid, method, union([
+            method.resolve(jr.at_temperature(mat, shift, T), layer, radius=args.radius, loads=[load], speeds=speeds,
+                           geometry=args.geometry).grid for T in (tmin, tmax)]))
+    _say(args.progress or (args.progress is None and name != "direct"))(
+        f"map: {len(temperatures)} temperatures x {len(speeds)} speeds, {args.geometry}, method {name} (one "
+        f"compiled program: compilation, then every point with dR/dT and dR/dH)")
+    with warnings.catch_warnings():  # reported below, per reason, in CLI terms
+        warnings.simplefilter("ignore", jr.ValidityWarning)
+        m = jr.resistance_map(mat, shift, layer, radius=args.radius, load=load, temperatures=temperatures,
+                              speeds=speeds, geometry=args.geometry, method=method)
+    m.write_csv(out / "map.csv", unit=unit)
+    _warn_invalid(m.result, "map")
+    H = f"{args.H * 1e3:g} mm"
+    plot.close(plot.plot_resistance_map(m, unit=unit, title=f"{args.geometry}, R = {args.radius:g} m, {load:g} {unit}, "
+                                        f"H = {H}, method {name}", path=out / "map.png"))
+    ok = m.valid
+    span = f"R_r {np.min(m.value[ok]):.4g}..{np.max(m.value[ok]):.4g} {unit}" if ok.any() else "no valid point"
+    print(f"material: {args.material} ({len(np.atleast_1d(mat.tau))} Prony terms, {type(shift).__name__} T_ref = "
+          f"{T_ref:.2f} K); {args.geometry} R = {args.radius:g} m, load {load:g} {unit}, layer H = {H}")
+    print(f"map: {m.value.size} points ({len(temperatures)} temperatures {tmin:.2f}..{tmax:.2f} K x {len(speeds)} "
+          f"speeds {args.vmin:g}..{args.vmax:g} m/s), {ok.mean() * 100:.0f} % valid; {span}; method {name}, {m.seconds * 1e3:.3g} ms per point (value, dR/dT, dR/dH; "
+          f"compiled)")
+    print(f"wrote {out / 'map.csv'}, {out / 'map.png'}  ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -449,6 +622,72 @@ def build_parser() -> argparse.ArgumentParser:
     _progress_args(f, None)
     f.add_argument("--out", default="jaxroll-fit", help="output folder (default jaxroll-fit)")
     f.set_defaults(func=_fit)
+
+    mt = sub.add_parser(
+        "material", help="raw multi-temperature DMA -> shift factors, WLF, master curve, Prony series, exports",
+        description="Read frequency sweeps at several temperatures (CSV: a header row of names, e.g. f, E_stor, "
+        "E_loss, T[, Set] or f, G_stor, G_loss, T, then a units row or units in the names: Hz|rad/s, "
+        "Pa|kPa|MPa|GPa, C|K), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
+        "curve at the reference temperature and fit a Prony series to it. Writes material.json and material.csv "
+        "(for jaxroll map), material_abaqus.inp (*VISCOELASTIC, TIME=PRONY; *TRS WLF), material_ansys.mac "
+        "(TB,PRONY; TB,SHIFT WLF), shift_factors.csv, master_curve.csv, master_curve.png, shift_factors.png and "
+        "material_report.txt into --out. Units SI (Pa, s, K).")
+    mt.add_argument("dma", help="DMA CSV (frequency sweeps at several temperatures)")
+    mt.add_argument("--poisson", type=_poisson("--poisson"), default=0.5,
+                    help="Poisson's ratio converting tensile moduli E to shear, G = E / (2 (1 + nu)); unused for "
+                    "shear data (0.5)")
+    mt.add_argument("--T-ref", dest="T_ref", type=_positive("--T-ref [K]"), default=None,
+                    help="reference temperature [K]: the set nearest to it is the reference (default: the set "
+                    "nearest the middle of the measured range)")
+    mt.add_argument("--shift-moduli", dest="shift_moduli", choices=["storage", "loss", "both"], default="storage",
+                    help="moduli compared when shifting the sets (storage: robust to loss artifacts such as an "
+                    "upturn at the top frequency)")
+    mt.add_argument("--prony-terms", dest="prony_terms", type=_count("--prony-terms"), default=None,
+                    help="relaxation times before pruning (default: one per decade of the master curve, plus one)")
+    mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
+                    help="leave out of the Prony fit the loss values at a measured frequency where the loss turns "
+                    "up in most sets (jaxroll.loss_artifacts: its second difference along each sweep above 4 robust "
+                    "standard deviations in >= 3/4 of the sets; the shipped file's 100 Hz); always reported")
+    mt.add_argument("--fe-poisson", dest="fe_poisson", type=_poisson("--fe-poisson", incompressible=False),
+                    default=0.49, help="instantaneous Poisson's ratio written to the Abaqus/ANSYS files (< 0.5; 0.49)")
+    _progress_args(mt, False)
+    mt.add_argument("--out", default="jaxroll-material", help="output folder (jaxroll-material)")
+    mt.set_defaults(func=_material_cmd)
+
+    mp = sub.add_parser(
+        "map", help="R_r over temperature x speed for a fitted material, with dR/dT and dR/dH (CSV and heat maps)",
+        description="Rolling resistance of a rigid sphere or cylinder on a layer of a material written by "
+        "jaxroll material (its Prony series and shift law), over temperature x speed, with dR_r/dT and dR_r/dH "
+        "from jax.grad, all points in one compiled program. Writes map.csv (temperature, speed, "
+        "rolling_resistance, dR_dT, dR_dH, valid, result) and map.png (heat maps with contours) into --out. "
+        "Units SI (m, N or N/m, K, m/s).")
+    mp.add_argument("--material", required=True, help="material.json (or material.csv) written by jaxroll material")
+    mp.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
+    mp.add_argument("--radius", type=_positive("--radius [m]"), default=0.01, help="roller radius [m] (0.01)")
+    mp.add_argument("--load", type=_positive("--load [N or N/m]"), default=None,
+                    help="load [N; N/m for cylinders] (default 10 N for a sphere, 1e4 N/m for a cylinder)")
+    mp.add_argument("--H", type=_positive("--H [m]"), default=0.01, help="layer thickness [m] (0.01)")
+    mp.add_argument("--rho", type=_nonnegative("--rho [kg/m^3]"), default=0.0,
+                    help="layer density [kg/m^3] (default 0: no inertia)")
+    mp.add_argument("--nu", type=_poisson("--nu"), default=0.5,
+                    help="layer Poisson's ratio (0.5; below 0.5 the quasi-static compressible layer, --rho 0)")
+    mp.add_argument("--tmin", type=_positive("--tmin [K]"), default=None,
+                    help="lowest temperature [K] (default: the material's lowest measured temperature)")
+    mp.add_argument("--tmax", type=_positive("--tmax [K]"), default=None,
+                    help="highest temperature [K] (default: the material's highest measured temperature)")
+    mp.add_argument("--n-temperatures", dest="n_temperatures", type=_count("--n-temperatures"), default=25,
+                    help="number of temperatures (25)")
+    mp.add_argument("--vmin", type=_positive("--vmin [m/s]"), default=1e-3, help="lowest speed [m/s] (1e-3)")
+    mp.add_argument("--vmax", type=_positive("--vmax [m/s]"), default=10.0, help="highest speed [m/s] (10)")
+    mp.add_argument("--n-speeds", dest="n_speeds", type=_count("--n-speeds"), default=25,
+                    help="number of log-spaced speeds (25)")
+    _method_args(mp, default="direct: a measured Prony spectrum spans ~20 decades of relaxation times, which the "
+                 "direct method takes in milliseconds per point with both gradients, while the periodic full "
+                 "models need periods of ~20 V tau_max")
+    mp.set_defaults(method="direct")
+    _progress_args(mp, None)
+    mp.add_argument("--out", default="jaxroll-map", help="output folder (jaxroll-map)")
+    mp.set_defaults(func=_map_cmd)
 
     from .reproduce import ALL_METHODS, CASES
 
@@ -560,8 +799,10 @@ def main(argv=None) -> int:
             parser.error("fit: give a rolling-resistance CSV and/or --dma")
         if args.data and args.radius is None:
             parser.error("fit: rolling-resistance data need --radius [m]")
-    if args.command == "curve" and not args.vmin < args.vmax:
-        parser.error(f"curve: --vmin ({args.vmin:g} m/s) must be below --vmax ({args.vmax:g} m/s)")
+    if args.command in ("curve", "map") and not args.vmin < args.vmax:
+        parser.error(f"{args.command}: --vmin ({args.vmin:g} m/s) must be below --vmax ({args.vmax:g} m/s)")
+    if args.command == "map" and None not in (args.tmin, args.tmax) and not args.tmin < args.tmax:
+        parser.error(f"map: --tmin ({args.tmin:g} K) must be below --tmax ({args.tmax:g} K)")
     import jax
 
     try:

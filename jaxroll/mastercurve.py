@@ -51,6 +51,7 @@ __all__ = [
     "fit_wlf",
     "fit_arrhenius",
     "master_curve",
+    "loss_artifacts",
     "fit_prony",
     "prony_moduli",
     "write_abaqus",
@@ -550,6 +551,7 @@ class MasterCurve:
         omega: reduced angular frequency ``omega a_T`` [rad/s], increasing.
         storage, loss: ``G'``, ``G''`` [Pa].
         set: temperature set of each point. T_ref: [K].
+        frequency: the measured (unshifted) angular frequency of each point [rad/s], or None.
     """
 
     omega: np.ndarray
@@ -557,6 +559,7 @@ class MasterCurve:
     loss: np.ndarray
     set: np.ndarray
     T_ref: float
+    frequency: np.ndarray | None = None
 
 
 def master_curve(sweeps: DMASweeps, shifts: ShiftFactors) -> MasterCurve:
@@ -564,7 +567,52 @@ def master_curve(sweeps: DMASweeps, shifts: ShiftFactors) -> MasterCurve:
     set) and sort: the master curve at ``shifts.T_ref``."""
     w = sweeps.omega * 10.0 ** shifts.log10_aT[sweeps.set]
     order = np.argsort(w, kind="stable")
-    return MasterCurve(w[order], sweeps.storage[order], sweeps.loss[order], sweeps.set[order], shifts.T_ref)
+    return MasterCurve(w[order], sweeps.storage[order], sweeps.loss[order], sweeps.set[order], shifts.T_ref,
+                       sweeps.omega[order])
+
+
+def loss_artifacts(master: MasterCurve, *, n_sigma=4.0, min_decades=0.02, min_fraction=0.75):
+    """The loss values of an instrument artifact at one measured frequency: points to leave out
+    of :func:`fit_prony` (``weights[flagged, 1] = 0``).
+
+    The rule: in every set, the loss at each measured frequency is compared with the straight
+    line (in ``log omega``, ``log10 G''``) through the same set's two next-lower frequencies.
+    A real loss curve bends smoothly, so these second differences scatter about zero; an
+    artifact at one frequency (e.g. a loss that turns up at the top frequency of every sweep,
+    as in the shipped file at 100 Hz) lifts them there in most sets. A measured frequency is
+    flagged when its second differences have a median above ``n_sigma`` robust standard
+    deviations of all of them (and above ``min_decades``) and are positive in at least
+    ``min_fraction`` of the sets (at least 3 sets). Frequencies are matched across sets to
+    0.01 decade; a set's two lowest frequencies cannot be tested. The storage modulus is not
+    tested (it is smoother and carries the shift).
+
+    Args:
+        master: a :class:`MasterCurve` from :func:`master_curve` (it needs ``frequency``).
+
+    Returns:
+        boolean array ``(n_points,)``: the master-curve points whose loss is flagged.
+    """
+    if master.frequency is None:
+        raise ValueError("loss_artifacts needs the measured frequency of each point (a MasterCurve from master_curve)")
+    x_all, y_all = np.log10(master.frequency), np.log10(master.loss)
+    d = np.full(len(x_all), np.nan)
+    for s in np.unique(master.set):
+        idx = np.flatnonzero(master.set == s)
+        idx = idx[np.argsort(x_all[idx], kind="stable")]
+        x, y = x_all[idx], y_all[idx]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d[idx[2:]] = y[2:] - y[1:-1] - (y[1:-1] - y[:-2]) / (x[1:-1] - x[:-2]) * (x[2:] - x[1:-1])
+    ok = np.isfinite(d)
+    flagged = np.zeros(len(x_all), bool)
+    if not ok.any():
+        return flagged
+    limit = max(n_sigma * _robust_scale(d[ok]), min_decades)
+    key = np.round(x_all, 2)
+    for k in np.unique(key[ok]):
+        m = ok & (key == k)
+        if m.sum() >= 3 and np.median(d[m]) > limit and np.mean(d[m] > 0) >= min_fraction:
+            flagged |= key == k
+    return flagged
 
 
 # ----------------------------------------------------------------------------------------
@@ -579,14 +627,16 @@ class PronyFit:
         material: :class:`jaxroll.GeneralizedMaxwell` (``G_inf``, ``G_i`` [Pa], ``tau_i`` [s]).
         residuals: ``log(G'_fit / G'_meas)`` and ``log(G''_fit / G''_meas)`` at the master
             curve's points, shape ``(n_points, 2)`` (natural log: relative errors).
-        rms: rms of ``residuals`` (storage and loss together) [-].
+        rms: rms of ``residuals`` (storage and loss together) over the values fitted [-].
         n_terms: number of terms kept (non-zero moduli).
+        weights: the weights of the (storage, loss) residuals, ``(n_points, 2)`` (0: left out).
     """
 
     material: GeneralizedMaxwell
     residuals: np.ndarray
     rms: float
     n_terms: int
+    weights: np.ndarray | None = None
 
 
 def prony_moduli(G_inf, G, tau, omega):
@@ -598,16 +648,17 @@ def prony_moduli(G_inf, G, tau, omega):
 
 
 @jax.jit
-def _prony_residuals(p, logw, log_gs, log_gl, log_tau_range):
+def _prony_residuals(p, logw, log_gs, log_gl, log_tau_range, weight):
     """Relative residuals ``log G'_fit - log G'_meas``, ``log G''_fit - log G''_meas`` for
-    parameters ``p = [log G_inf, log G_1..n, u_1..n]``; the times stay inside the data's
+    parameters ``p = [log G_inf, log G_1..n, u_1..n]``, times ``weight`` (per residual, storage
+    then loss; 0 leaves one out); the times stay inside the data's
     range, ``log tau_i = lo + (hi - lo) sigmoid(u_i)`` (a term outside it would be fitted to
     the ends' noise, with no modulus there to bound it)."""
     n = (p.shape[0] - 1) // 2
     lo, hi = log_tau_range[0], log_tau_range[1]
     tau = jnp.exp(lo + (hi - lo) * jax.nn.sigmoid(p[n + 1 :]))
     gs, gl = prony_moduli(jnp.exp(p[0]), jnp.exp(p[1 : n + 1]), tau, jnp.exp(logw))
-    return jnp.concatenate([jnp.log(gs) - log_gs, jnp.log(gl) - log_gl])
+    return jnp.concatenate([jnp.log(gs) - log_gs, jnp.log(gl) - log_gl]) * weight
 
 
 _prony_jacobian = jax.jit(jax.jacfwd(_prony_residuals))
@@ -636,7 +687,7 @@ def _refine(p, args, max_steps=200):
     return p
 
 
-def fit_prony(master: MasterCurve, *, n_terms=None, refine=True) -> PronyFit:
+def fit_prony(master: MasterCurve, *, n_terms=None, refine=True, weights=None) -> PronyFit:
     """Fit a generalized Maxwell series (Prony series) to a master curve, storage and loss
     jointly.
 
@@ -656,6 +707,9 @@ def fit_prony(master: MasterCurve, *, n_terms=None, refine=True) -> PronyFit:
         n_terms: number of relaxation times before pruning (default: one per decade of the
             reduced-frequency range, plus one).
         refine: refine the NNLS solution (default True).
+        weights: array ``(n_points, 2)`` of weights >= 0 of each point's (storage, loss)
+            residual (default all 1); 0 leaves a value out of the fit (e.g. the instrument
+            artifacts :func:`loss_artifacts` finds); every residual is still reported.
 
     Returns:
         :class:`PronyFit`.
@@ -668,26 +722,34 @@ def fit_prony(master: MasterCurve, *, n_terms=None, refine=True) -> PronyFit:
     if n < 1:
         raise ValueError(f"n_terms must be >= 1; got {n_terms}")
     tau = np.logspace(lo, hi, n) if n > 1 else np.array([10 ** (0.5 * (lo + hi))])
+    wts = np.ones((len(w), 2)) if weights is None else np.asarray(weights, float)
+    if wts.shape != (len(w), 2) or not np.all(np.isfinite(wts) & (wts >= 0)):
+        raise ValueError(f"weights must be finite, >= 0, of shape ({len(w)}, 2) (storage, loss per point); got "
+                         f"shape {wts.shape}")
+    keep_pt = wts > 0
+    weight = np.concatenate([wts[:, 0], wts[:, 1]])
     wt = w[:, None] * tau
     A_s = np.hstack([np.ones((len(w), 1)), wt**2 / (1 + wt**2)]) / gs[:, None]
     A_l = np.hstack([np.zeros((len(w), 1)), wt / (1 + wt**2)]) / gl[:, None]
-    x, _ = nnls(np.vstack([A_s, A_l]), np.ones(2 * len(w)), maxiter=50 * (n + 1))
+    x, _ = nnls(np.vstack([A_s, A_l]) * weight[:, None], weight, maxiter=50 * (n + 1))
     G_inf = max(float(x[0]), 1e-6 * float(np.min(gs)))
     keep = x[1:] > 1e-8 * float(np.sum(x[1:]))
     G, tau = x[1:][keep], tau[keep]
     # times as u = logit of their position in [lo - 0.5, hi + 0.5] decades (ln units below)
     lo_e, hi_e = (lo - 0.5) * math.log(10), (hi + 0.5) * math.log(10)
-    args = (jnp.asarray(np.log(w)), jnp.asarray(np.log(gs)), jnp.asarray(np.log(gl)), jnp.asarray([lo_e, hi_e]))
+    args = (jnp.asarray(np.log(w)), jnp.asarray(np.log(gs)), jnp.asarray(np.log(gl)), jnp.asarray([lo_e, hi_e]),
+            jnp.asarray(weight))
     t = (np.log(tau) - lo_e) / (hi_e - lo_e)
     p = np.concatenate([[math.log(G_inf)], np.log(G), np.log(t) - np.log1p(-t)])
     k = len(G)
     if refine and k:
         p = _refine(p, args)
-    r = np.asarray(_prony_residuals(jnp.asarray(p), *args)).reshape(2, -1).T
+    r = np.asarray(_prony_residuals(jnp.asarray(p), *args[:-1], jnp.ones_like(args[-1]))).reshape(2, -1).T
     tau = np.exp(lo_e + (hi_e - lo_e) / (1.0 + np.exp(-p[k + 1 :])))
     order = np.argsort(tau)
     mat = GeneralizedMaxwell(G_inf=math.exp(p[0]), G=np.exp(p[1 : k + 1])[order], tau=tau[order])
-    return PronyFit(material=mat, residuals=r, rms=float(np.sqrt(np.mean(r**2))), n_terms=k)
+    return PronyFit(material=mat, residuals=r, rms=float(np.sqrt(np.mean(r[keep_pt] ** 2))), n_terms=k,
+                    weights=wts)
 
 
 # ----------------------------------------------------------------------------------------
@@ -815,6 +877,7 @@ class ResistanceMap:
         dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (``jax.grad``).
         seconds: wall time of the compiled map (values and gradients, compilation excluded)
             divided by the number of points [s].
+        result: the :data:`jaxroll.RESULTS` code per point (why a point is not valid).
     """
 
     temperatures: np.ndarray
@@ -824,17 +887,23 @@ class ResistanceMap:
     dR_dT: np.ndarray
     dR_dH: np.ndarray
     seconds: float
+    result: np.ndarray | None = None
 
     def write_csv(self, path, *, unit="N"):
-        """One row per point: temperature [K], speed [m/s], R_r, dR/dT, dR/dH, valid."""
+        """One row per point: temperature [K], speed [m/s], R_r, dR/dT, dR/dH, valid and (when
+        known) the name of the point's :data:`jaxroll.RESULTS` code."""
+        from .result import RESULTS
+
+        extra = self.result is not None
         with open(path, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid"])
-            w.writerow(["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"])
+            w.writerow(["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid"] + ["result"] * extra)
+            w.writerow(["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"] + ["-"] * extra)
             for i, T in enumerate(self.temperatures):
                 for j, V in enumerate(self.speeds):
                     w.writerow([f"{T:.6g}", f"{V:.6g}", f"{self.value[i, j]:.8g}", f"{self.dR_dT[i, j]:.6g}",
-                                f"{self.dR_dH[i, j]:.6g}", int(self.valid[i, j])])
+                                f"{self.dR_dH[i, j]:.6g}", int(self.valid[i, j])]
+                               + [RESULTS.names[int(self.result[i, j])]] * extra)
 
 
 def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",
@@ -856,6 +925,7 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
 
     from .layer import Layer
     from .material import at_temperature
+    from .result import RESULTS
     from .rolling import rolling_resistance
 
     T = jnp.asarray(np.asarray(temperatures, float))
@@ -865,16 +935,16 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
         r = rolling_resistance(at_temperature(material, shift, Ti), lay, radius=radius, load=load, speed=Vi,
                                geometry=geometry, method=method, throw=False)
-        return r.value, r.valid
+        return r.value, r.result
 
     def value_and_grads(Ti, Vi, H):
-        (v, ok), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
-        return v, ok, g[0], g[1]
+        (v, code), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
+        return v, code, g[0], g[1]
 
     grid = jax.jit(jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None)))
     H = jnp.asarray(layer.H)
     jax.block_until_ready(grid(T, V, H))  # compile
     t0 = time.perf_counter()
-    v, ok, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
+    v, code, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
     seconds = (time.perf_counter() - t0) / v.size
-    return ResistanceMap(np.asarray(T), np.asarray(V), v, ok.astype(bool), dT, dH, seconds)
+    return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))

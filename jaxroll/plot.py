@@ -19,7 +19,7 @@ from . import material as _material
 
 __all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
            "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "plot_master_fit",
-           "plot_resistance_map", "close"]
+           "plot_resistance_map", "plot_shift_factors", "close"]
 
 
 def _save(fig, path):
@@ -304,19 +304,25 @@ def plot_pressure_map(x, y, pressure, *, contact=None, title=None, path=None):
 def plot_master_fit(master, prony, *, path=None):
     """A master curve (points coloured by temperature set) with its Prony fit, and the fit's
     relative residuals ``log(G_fit / G_meas)`` (``master``: :class:`jaxroll.MasterCurve`,
-    ``prony``: :class:`jaxroll.PronyFit`)."""
+    ``prony``: :class:`jaxroll.PronyFit`); loss values the fit left out (weight 0) are circled."""
     w = np.logspace(math.log10(master.omega.min()), math.log10(master.omega.max()), 400)
     g = np.asarray(_material.complex_modulus(prony.material, w))
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
     sc = ax1.scatter(master.omega, master.storage, c=master.set, s=9, cmap="viridis", label="G' measured")
     ax1.scatter(master.omega, master.loss, c=master.set, s=9, cmap="viridis", marker="x", label="G'' measured")
+    out = np.zeros(len(master.omega), bool) if prony.weights is None else prony.weights[:, 1] == 0
+    if out.any():
+        ax1.scatter(master.omega[out], master.loss[out], s=60, facecolors="none", edgecolors="r",
+                    label="G'' left out of the fit")
     ax1.loglog(w, g.real, "k-", lw=1.2, label=f"G' Prony ({prony.n_terms} terms)")
     ax1.loglog(w, g.imag, "k--", lw=1.2, label="G'' Prony")
     fig.colorbar(sc, ax=ax1, label="temperature set")
     ax1.set(ylabel="shear modulus [Pa]", title=f"master curve at T_ref = {master.T_ref:.2f} K")
     ax1.legend(fontsize=8)
     ax2.semilogx(master.omega, prony.residuals[:, 0], ".", ms=4, label="storage")
-    ax2.semilogx(master.omega, prony.residuals[:, 1], "x", ms=4, label="loss")
+    ax2.semilogx(master.omega[~out], prony.residuals[~out, 1], "x", ms=4, label="loss")
+    if out.any():
+        ax2.semilogx(master.omega[out], prony.residuals[out, 1], "o", ms=6, mfc="none", mec="r", label="loss, left out")
     ax2.axhline(0.0, color="k", lw=0.8)
     ax2.set(xlabel="reduced angular frequency ω a_T [rad/s]", ylabel="log(G_fit / G_meas)",
             title=f"residuals (rms {prony.rms:.3f})")
@@ -335,7 +341,9 @@ def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for ax, data, label in ((axes[0], rmap.value, f"R_r [{unit}]"), (axes[1], rmap.dR_dT, f"dR_r/dT [{unit}/K]")):
         z = np.ma.masked_where(~rmap.valid, data)
-        if data is rmap.value:
+        if not z.count():  # no valid point: an empty panel (a log scale needs values)
+            im = ax.pcolormesh(V, T, z, shading="nearest")
+        elif data is rmap.value:
             im = ax.pcolormesh(V, T, z, shading="nearest", norm=plt.matplotlib.colors.LogNorm())
             ax.contour(V, T, np.log10(np.where(rmap.valid, data, np.nan)), colors="w", linewidths=0.7)
         else:
@@ -347,5 +355,25 @@ def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
         fig.colorbar(im, ax=ax, label=label)
     if title:
         fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_shift_factors(shifts, fits: dict, *, path=None):
+    """Shift factors ``log10 a_T`` against temperature with 95 % error bars and the fitted
+    laws (``shifts``: :class:`jaxroll.ShiftFactors`; ``fits``: ``{label: ShiftFit}``, e.g.
+    ``{"WLF": jr.fit_wlf(shifts), "Arrhenius": jr.fit_arrhenius(shifts)}``)."""
+    T = shifts.temperature
+    Tf = np.linspace(T.min(), T.max(), 200)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.errorbar(T - 273.15, shifts.log10_aT, yerr=1.96 * shifts.sigma, fmt="o", ms=4, capsize=2, color="k",
+                label="from the data (95 %)")
+    for label, fit in fits.items():
+        ax.plot(Tf - 273.15, np.asarray(fit.shift.log_shift(Tf)) / math.log(10.0), lw=1.2,
+                label=f"{label} (rms {fit.rms:.2f} decades)")
+    ax.axvline(shifts.T_ref - 273.15, color="0.6", lw=0.8, ls=":")
+    ax.set(xlabel="temperature [°C]", ylabel="log10 a_T", title=f"shift factors, T_ref = {shifts.T_ref:.2f} K")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
