@@ -275,9 +275,11 @@ def test_direct_method_on_the_shipped_full_3d_set_is_flagged_as_misfit():
 # by the same discretised model, so the fit has no model error (the discretisation bias against
 # the paper resolution is quantified in fitting/README.md)
 FULL_COARSE = jr.Full(grid=jr.FixedGrid(5e-4, 29, period=0.1, n_terms=200))
-# the 0.1 m period of this coarse grid is below 20 r_c at the largest loads: flagged, but the
-# contact solves converge (the data come from the same discretised model)
-CONVERGED = (0, jr.RESULTS.period_too_short)
+# the 0.1 m period of this coarse grid is below 20 r_c at the largest loads, and at 10 N and
+# 1e-4 m/s (4.6 cells per contact radius, R_r tiny) its moment and dissipation forms differ by
+# more than 10 %: flagged, but the contact solves converge (the data come from the same
+# discretised model, so the fit sees no model error)
+CONVERGED = (0, jr.RESULTS.period_too_short, jr.RESULTS.truncation_too_large)
 
 
 @functools.partial(jax.jit, static_argnums=3)
