@@ -86,9 +86,9 @@ def _full_points(d, geometry, method, k):
 @pytest.mark.parametrize(
     "geometry,method,n",
     [
-        ("cylinder", "full", 12),
+        ("cylinder", "full", 6),
         pytest.param("cylinder", "full", 300, marks=pytest.mark.slow),
-        ("sphere", "SP", 6),
+        ("sphere", "SP", 3),
         pytest.param("sphere", "SP", 100, marks=pytest.mark.slow),
         pytest.param("sphere", "PD", 100, marks=pytest.mark.slow),
         pytest.param("sphere", "PP", 100, marks=pytest.mark.slow),
