@@ -156,6 +156,10 @@ def _read_table(path, required, optional, kind):
                       f"check the spelling", DataWarning, stacklevel=3)
     if len(units) != len(header):
         raise ValueError(f"{path}, line {uline}: the units row has {len(units)} entries for {len(header)} columns")
+    for line, r in rows[2:]:
+        if len(r) > len(header) and any(c.strip() for c in r[len(header):]):
+            raise ValueError(f"{path}, line {line}: {len(r)} cells for {len(header)} columns (extra values after "
+                             f"{header[-1]!r})")
     out = {}
     for col in required + [c for c in optional if c in header]:
         j = header.index(col)

@@ -184,11 +184,25 @@ def test_malformed_dma_csv_errors_name_the_line(tmp_path, text, match):
         ("speed,load,rolling_resistance\nm/s,N,N\n0.1,-10,0.01\n", r"line 3: load must be positive"),
         ("speed,rolling_resistance\nm/s,N\n0.1,0.01\n", r"missing column\(s\) \['load'\]"),
         ("speed,load,rolling_resistance\nm/s,N,N\n0.1,10,NaN\n", r"line 3: rolling_resistance is 'NaN'"),
+        ("speed,load,rolling_resistance\nm/s,N,N\n0.1,10,0.01\n0.2,10,0.02,7\n", r"line 4: 4 cells for 3 columns"),
+        ("speed,load,rolling_resistance,load\nm/s,N,N,N\n0.1,10,0.2,10\n",
+         r"line 1: column name\(s\) \['load'\] appear more than once"),
     ],
 )
 def test_malformed_rolling_csv_errors_name_the_line(tmp_path, text, match):
     with pytest.raises(ValueError, match=match):
         read_rolling_csv(_write(tmp_path, text))
+
+
+def test_csv_bom_unknown_columns_and_repeated_points(tmp_path):
+    # a UTF-8 BOM (spreadsheets) is read; a misspelt optional column and repeated points warn
+    p = tmp_path / "bom.csv"
+    p.write_bytes("speed,load,rolling_resistance,sigam\nm/s,N,N,N\n0.1,10,0.01,1\n0.1,10,0.012,1\n".encode("utf-8-sig"))
+    with pytest.warns(jr.DataWarning) as rec:
+        r = read_rolling_csv(p)
+    messages = " ".join(str(w.message) for w in rec)
+    assert "['sigam'] not used" in messages and "2 rows share their (speed, load)" in messages
+    assert r.value.tolist() == [0.01, 0.012] and r.sigma is None
 
 
 def test_bad_fit_arguments():
