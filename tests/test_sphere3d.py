@@ -434,9 +434,11 @@ def test_edge_smoothing_tends_to_the_exact_contact():
     theta = jnp.asarray([G0, TAU, F])
     loads, speeds = jnp.asarray([100.0]), jnp.asarray([1e-2])
     exact = float(_edge_sweep(theta, loads, speeds, None)[0][0, 0])
-    dev = [float(_edge_sweep(theta, loads, speeds, k)[0][0, 0]) / exact - 1 for k in (0.5, 0.25, 0.125, 0.03125)]
+    # kappa in steps of 4 (each kappa is a separate compiled program): at least linear means a
+    # ratio > 4 per step (measured -4.5 / -0.37 % at 0.5 / 0.125)
+    dev = [float(_edge_sweep(theta, loads, speeds, k)[0][0, 0]) / exact - 1 for k in (0.5, 0.125, 0.03125)]
     assert all(d < 0 for d in dev)  # the soft edge lets cells with a small gap carry load: less asymmetry
-    assert all(a / b > 2.0 for a, b in zip(dev[:-1], dev[1:3])), dev
+    assert dev[0] / dev[1] > 4.0, dev
     assert abs(dev[-1]) < 5e-4, dev  # 1/32: well inside the discretisation error of this grid (~3 %)
 
 

@@ -86,9 +86,9 @@ def _full_points(d, geometry, method, k):
 @pytest.mark.parametrize(
     "geometry,method,n",
     [
-        ("cylinder", "full", 6),
+        ("cylinder", "full", 4),
         pytest.param("cylinder", "full", 300, marks=pytest.mark.slow),
-        ("sphere", "SP", 3),
+        ("sphere", "SP", 2),
         pytest.param("sphere", "SP", 100, marks=pytest.mark.slow),
         pytest.param("sphere", "PD", 100, marks=pytest.mark.slow),
         pytest.param("sphere", "PP", 100, marks=pytest.mark.slow),
