@@ -47,6 +47,17 @@ def test_sweep_grid_axes(tmp_path):
     assert len(rows) == 2 + 6
 
 
+def test_sweep_outside_validity_writes_valid_0_and_warns(tmp_path, capsys):
+    # the README's sweep example with the direct method: gamma = r_c/H = 3.1 and 0.91 at 100 N,
+    # outside both pressure models, so every point is flagged (it used to be written silently)
+    argv = ["sweep", "--vary", "V=1e-4:1:3:log", "--vary", "H=0.002,0.005", "--method", "direct", "--quiet"]
+    assert main([*argv, "--out", str(tmp_path)]) == 0
+    rows = _rows(tmp_path / "sweep.csv")[2:]
+    assert {r[3] for r in rows} == {"0"} and {r[4] for r in rows} == {"outside_pressure_model"}
+    err = capsys.readouterr().err
+    assert "warning: 6 of 6 points not valid (outside_pressure_model)" in err and "--method full" in err
+
+
 # G0 and tau of a sphere on a thick layer are ~99.9 % correlated in rolling-resistance data alone
 # (the identifiability warning is the expected, physical outcome; see tests/test_fit.py)
 @pytest.mark.filterwarnings("ignore::jaxroll.fit.IdentifiabilityWarning")
