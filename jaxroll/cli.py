@@ -766,9 +766,6 @@ def _runtime_message(err) -> str:
     import re
 
     m = re.search(r"EquinoxRuntimeError: ([^\n]+)", str(err))
-    if m is None:  # raised by eqx.filter_jit: the message is the last non-empty paragraph before the advice
-        lines = [line.strip() for line in str(err).splitlines() if line.strip().startswith("equinox.")]
-        m = re.search(r"EquinoxRuntimeError: (.+)", lines[-1]) if lines else None
     return m.group(1).strip() if m else str(err).strip().splitlines()[0]
 
 

@@ -129,7 +129,6 @@ __all__ = [
     "active_set_loop",
     "periodic_window_kernel",
     "toeplitz_operator",
-    "dissipation_resistance",
     "edge_gap_scale",
 ]
 
@@ -867,34 +866,3 @@ def edge_gap_scale(kappa, cell_size, contact_radius, radius):
     if kappa is None:
         return None
     return kappa * cell_size * jnp.sqrt(cell_size * contact_radius) / radius
-
-
-def dissipation_resistance(kernel2, pressure, n_cells, period):
-    """Rolling resistance from the dissipated power of a pressure field, ``-int p du/dx dA``.
-
-    Exact for the piecewise-constant pressure on the periodic grid (every alias mode included):
-    ``R_r = (dA^2/A) sum_r |DFT(p)_r|^2 K2_r`` with ``K2`` from
-    :func:`periodic_kernel` (``dissipation=True``), ``A = prod L_k``, ``dA = A / prod N_k``;
-    the discrete form of ``R_r = A sum_m q_x Im T(q_m) |p_hat_m|^2`` ([ZG] eq. 26/29 with the
-    solved pressure instead of a stationary one).
-
-    Args:
-        kernel2: ``K2`` in ``rfftn`` layout [m/Pa per m].
-        pressure: pressure [Pa] on a window of the period grid (any placement).
-        n_cells, period: the period grid (static tuple, tuple of lengths [m]).
-
-    Returns:
-        ``R_r`` [N/m in 1D, N in 2D].
-    """
-    n_cells = tuple(int(n) for n in n_cells)
-    area = 1.0
-    for L in period:
-        area = area * L
-    dA = area / math.prod(n_cells)
-    full = jnp.zeros(n_cells).at[tuple(slice(0, w) for w in pressure.shape)].set(pressure)
-    P = jnp.fft.rfftn(full)
-    n_last = n_cells[-1]
-    wts = np.full(n_last // 2 + 1, 2.0)
-    wts[0] = 1.0
-    wts[-1] = 1.0
-    return dA * dA / area * jnp.sum(wts * jnp.abs(P) ** 2 * kernel2)

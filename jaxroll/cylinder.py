@@ -9,7 +9,7 @@ Rolling resistance per unit length, two ways :
 
 * pressure moment ``R_r = (1/R) int p x dx`` (the reported value);
 * dissipation ``R_r = -int p du/dx dx``, evaluated exactly for the piecewise-constant pressure
-  in Fourier space (:func:`jaxroll.contact.dissipation_resistance`).
+  in Fourier space (:meth:`jaxroll.contact.WindowKernel.resistance`).
 
 In the continuum both are equal because ``du/dx = -x/R`` on the contact. The grid imposes the
 contact condition at cell centres only, so in the discrete problem they differ by the

@@ -22,7 +22,7 @@ Rolling resistance, two ways :
 
 * pressure moment ``R_r = (1/R) sum p x dA`` (the reported ``value``);
 * dissipation ``R_r = -int p du/dx dA``, exact for the piecewise-constant pressure
-  (:func:`jaxroll.contact.dissipation_resistance`; the discrete [ZG] eq. 26 with the solved
+  (:meth:`jaxroll.contact.WindowKernel.resistance`; the discrete [ZG] eq. 26 with the solved
   pressure). Both agree up to the discretisation error (the collocated gap vanishes only at
   cell centres, and the contact edge cuts cells): measured order 1.5-2.5 in the cell size, 1-2 %
   at 6-9 cells per contact radius (the paper's a = 0.25 mm at P = 10 N), 0.1 % at 32; their
