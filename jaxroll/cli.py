@@ -44,6 +44,13 @@ def _positive(kind):
     return _number(kind)
 
 
+def _period(text):
+    """``--period``: ``auto`` or a positive length [m]."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    return _positive("--period [m]")(text)
+
+
 def _nonnegative(kind):
     return _number(kind, zero_ok=True)
 
@@ -117,8 +124,9 @@ def _method_args(p, *, fit=False, default=None):
                    help="fixed grid (full, slices, direct --pressure elastic): cell size [m], with --window")
     g.add_argument("--window", type=_count("--window"), default=None,
                    help="fixed grid: cells per side of the pressure window, with --spacing")
-    g.add_argument("--period", type=_positive("--period [m]"), default=None,
-                   help="period of the surface [m] (the paper: 0.2); default: automatic")
+    g.add_argument("--period", type=_period, default=None,
+                   help="period of the surface [m] (the paper: 0.2), or 'auto' (long enough for the layer to "
+                        "recover); default: an infinite layer (a single roller)")
     g.add_argument("--n-terms", dest="n_terms", type=_count("--n-terms"), default=None,
                    help="Fourier cut-off of the periodic 3D compliance (paper: 500); default the period cells")
     g.add_argument("--cells-per-radius", dest="cells_per_radius", type=_count("--cells-per-radius"), default=None,
@@ -150,8 +158,10 @@ def _method_from_args(args, *, fit=False):
             raise ValueError("--cells-per-radius sizes the automatic grid; it does not go with --spacing/--window")
         grid = jr.FixedGrid(args.spacing, args.window, period=args.period, n_terms=args.n_terms)
     else:
-        grid = jr.AutoGrid(cells_per_radius=args.cells_per_radius,
-                           period="auto" if args.period is None else args.period, n_terms=args.n_terms)
+        period = args.period
+        if period is None and name == "direct":
+            period = "auto"  # --pressure elastic evaluates the periodic [ZG] eq. 26
+        grid = jr.AutoGrid(cells_per_radius=args.cells_per_radius, period=period, n_terms=args.n_terms)
     if name == "direct":
         return jr.Direct(pressure=args.pressure, grid=grid)
     if name == "full":
@@ -681,9 +691,8 @@ def build_parser() -> argparse.ArgumentParser:
     mp.add_argument("--vmax", type=_positive("--vmax [m/s]"), default=10.0, help="highest speed [m/s] (10)")
     mp.add_argument("--n-speeds", dest="n_speeds", type=_count("--n-speeds"), default=25,
                     help="number of log-spaced speeds (25)")
-    _method_args(mp, default="direct: a measured Prony spectrum spans ~20 decades of relaxation times, which the "
-                 "direct method takes in milliseconds per point with both gradients, while the periodic full "
-                 "models need periods of ~20 V tau_max")
+    _method_args(mp, default="direct: milliseconds per point with both gradients for a measured Prony spectrum; "
+                 "the full and slice models take it too, on an infinite layer, at 10-100 ms per point")
     mp.set_defaults(method="direct")
     _progress_args(mp, None)
     mp.add_argument("--out", default="jaxroll-map", help="output folder (jaxroll-map)")

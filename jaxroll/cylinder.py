@@ -37,6 +37,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from . import aperiodic as _aperiodic
 from . import contact as _contact
 from ._numerics import as_float, to_complex
 from .grids import FixedGrid
@@ -109,10 +110,16 @@ def compliance_function(material, layer: Layer, V):
 def kernel_builder(material, layer: Layer, grid: FixedGrid, images: int = IMAGES):
     """``V -> WindowKernel``: the plane-strain compliance and dissipation operators of ``grid``'s
     window at speed ``V`` [m/s] (periodic alias sum with ``images`` images per side and the
-    analytic tail, :func:`jaxroll.contact.periodic_kernel`)."""
+    analytic tail, :func:`jaxroll.contact.periodic_kernel`; on an infinite layer,
+    ``grid.period = None``, the aperiodic influence coefficients of :mod:`jaxroll.aperiodic`)."""
     if grid.period is None:
-        raise NotImplementedError("the full 2D model on an infinite layer (FixedGrid(period=None)) is not "
-                                  "available yet: give a period")
+        halfspace = jnp.isinf(as_float(layer.H))
+
+        def build_infinite(V):
+            return _aperiodic.line_window_kernel(compliance_function(material, layer, V), grid.spacing, grid.window,
+                                                 halfspace)
+
+        return build_infinite
     L, N, W = grid.period[0], grid.n_cells[0], grid.window
 
     def build(V):

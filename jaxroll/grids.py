@@ -20,16 +20,19 @@ The sizing rules (one home for each):
 * **sphere** (full 3D model): cell ``a = r/c`` with ``r`` the stationary contact radius
   (:func:`jaxroll.contact_size.estimate_contact_size`) and ``c = 12`` cells per radius, at least
   ``2 r/H`` on thin layers (the compliance kernel is only ~H wide); window
-  ``2 ceil(1.25 r_max/a) + 1`` cells; period ``Lx >= 20 max(r, V t_max)``,
-  ``Ly >= 20 r`` in powers of two of cells (``t_max`` the material's longest retardation
-  time), ``Lx`` capped at 2^13 cells; Fourier cut-off ``n_terms`` = the larger cell count.
+  ``2 ceil(1.25 r_max/a) + 1`` cells. Default: an infinite layer (``period=None``, the
+  aperiodic kernel of :mod:`jaxroll.aperiodic`). With ``period="auto"``: ``Lx >= 20 max(r,
+  V t_max)``, ``Ly >= 20 r`` in powers of two of cells (``t_max`` the material's longest
+  retardation time), ``Lx`` capped at 2^16 cells; Fourier cut-off ``n_terms`` = the larger
+  cell count.
 * **line** (full 2D cylinder and the slices of PD/PP/SP): cell ``a/c`` with ``a`` the
   estimated half-width and ``c`` by the speed (measured against the exact half-space cylinder,
-  <= 1 % error of the moment form): 25 cells for ``0.03 <= V tau/a0 <= 30``, 128 below, 50 up
-  to 300, 100 above, and at least ``2 a/H``; window ``2 ceil(3 a_max/dx)`` cells; period
-  ``L >= 20 max(4 a, V t_max)`` (the elastic log-kernel interaction of periodic images tilts
-  the pressure: at ``V tau = a0``, ``L = 20 a0`` gives -0.76 % in R_r, ``80 a0`` 0.0 %),
-  capped at 2^21 cells.
+  <= 0.5 % error of the moment form, :func:`line_cells_per_radius`): 25 cells for
+  ``0.03 <= V tau/a0 <= 30``, 128 down to 3e-3, 192 below, 50 up to 300, 100 above, and at
+  least ``2 a/H``; window ``2 ceil(3 a_max/dx)`` cells. Default: an infinite layer. With
+  ``period="auto"``: ``L >= 20 max(4 a, V t_max)`` (the elastic log-kernel interaction of
+  periodic images tilts the pressure: at ``V tau = a0``, ``L = 20 a0`` gives -0.76 % in R_r,
+  ``80 a0`` 0.0 %), capped at 2^21 cells.
 """
 
 from __future__ import annotations
@@ -183,7 +186,12 @@ class FixedGrid(eqx.Module):
         jax 0.9.2 CPU (peak resident memory above the process baseline, the compiled program's
         temporary buffers): ~100 B per 3D Fourier mode and 64 B per period cell."""
         if self.period is None:
-            return 64 * (2 * self.window) ** ndim
+            # the aperiodic rule (jaxroll.aperiodic): ~16 W w_Q + 120 nodes per axis; in 3D the
+            # y-integrals (two W-column tables per x node) and one chunk of the node tensor
+            nodes = 16 * self.window * (1 if ndim == 2 else 8) + 160
+            if ndim == 2:
+                return 64 * (2 * self.window) ** 2 + 48 * nodes * self.window + 400 * 64 * nodes
+            return 64 * 2 * self.window + 200 * nodes
         cells = int(np.prod(self.n_cells)) if ndim == 2 else self.n_cells[0]
         if ndim == 2:
             nx, ny = self.axis_terms()
@@ -212,9 +220,10 @@ class AutoGrid(eqx.Module):
             (cylinder, slices); ``None``: the model's rule (sphere 12; line 25..128 by speed).
         window_radii: half-width of the pressure window in estimated contact radii (``None``:
             1.25 for spheres, 3 for lines).
-        period: ``"auto"`` (a periodic surface long enough for the layer to recover,
-            ``>= period_factor max(contact size, V t_max)``), a period [m] (or ``(Lx, Ly)``), or
-            ``None`` (an infinite layer).
+        period: ``None`` (default: an infinite layer, the aperiodic influence coefficients of
+            :mod:`jaxroll.aperiodic`; memory and time follow the contact, not ``V t_max``),
+            ``"auto"`` (a periodic surface long enough for the layer to recover,
+            ``>= period_factor max(contact size, V t_max)``), or a period [m] (or ``(Lx, Ly)``).
         period_factor: see ``period="auto"``.
         n_terms: 3D Fourier cut-off (``None``: the larger period cell count).
 
@@ -225,7 +234,7 @@ class AutoGrid(eqx.Module):
 
     cells_per_radius: int | None = eqx.field(static=True, default=None)
     window_radii: float | None = eqx.field(static=True, default=None)
-    period: float | tuple | str | None = eqx.field(static=True, default="auto")
+    period: float | tuple | str | None = eqx.field(static=True, default=None)
     period_factor: float = eqx.field(static=True, default=PERIOD_FACTOR)
     n_terms: int | None = eqx.field(static=True, default=None)
 
@@ -290,10 +299,13 @@ class AutoGrid(eqx.Module):
 
 
 def line_cells_per_radius(zeta: float) -> int:
-    """Cells per half-width giving <= 1 % error of the 2D moment form against the exact
-    half-space cylinder (measured, f = 1): 25 cells err <= 0.5 % for 0.03 <= V tau/a0 <= 30 (-2 %
-    at 0.01, +1.5 % at 100); 128 cells: -0.7 % at 1e-3; 50 cells: -0.1 % at 100, +0.65 % at
-    1000; 100 cells: +0.2 % at 1000."""
+    """Cells per half-width giving <= 0.5 % error of the 2D moment form against the exact
+    half-space cylinder (measured, f = 1, infinite layer): 25 cells err <= 0.5 % for
+    0.03 <= V tau/a0 <= 30 (-2.2 % at 0.01, +1.5 % at 100); 128 cells: +0.06 % at 0.01, -0.31 % at
+    3e-3, -0.81 % at 1e-3; 192 cells: -0.43 % at 1e-3; 50 cells: -0.1 % at 100, +0.65 % at 1000;
+    100 cells: +0.2 % at 1000."""
+    if zeta < 0.003:
+        return 192
     if zeta < 0.03:
         return 128
     if zeta <= 30.0:

@@ -135,7 +135,7 @@ class Direct(AbstractMethod):
     rtol: float = eqx.field(static=True, default=1e-4)
     period: float | tuple | None = eqx.field(static=True, default=None)
     n_terms: int | None = eqx.field(static=True, default=None)
-    grid: AutoGrid | FixedGrid = AutoGrid()
+    grid: AutoGrid | FixedGrid = AutoGrid(period="auto")
 
     def __check_init__(self):
         _check_choice("Direct.pressure", self.pressure, ("auto", "thick", "thin", "thin-compressible", "elastic"))

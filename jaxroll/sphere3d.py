@@ -57,6 +57,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import aperiodic as _aperiodic
 from . import contact as _contact
 from ._numerics import as_float, where_safe
 from .contact_size import estimate_contact_size
@@ -172,8 +173,7 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
     speed-independent work (the layer factor ``T_1 S`` of a quasi-static layer on the mode grid)
     is done once, here; each call evaluates ``G*`` on the ``q_x`` modes only."""
     if grid.period is None:
-        raise NotImplementedError("the full 3D model on an infinite layer (FixedGrid(period=None)) is not "
-                                  "available yet: give a period")
+        return _infinite_kernel_builder(material, layer, grid)
     n_cells, period = grid.n_cells, grid.period
     terms = grid.axis_terms(n_terms)
     window = (grid.window, grid.window)
@@ -189,6 +189,46 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
         def build(V):
             K, K2 = sphere_kernel(material, layer, V, n_cells, period, terms)
             return _contact.periodic_window_kernel(K, K2, n_cells, period, window)
+    return build
+
+
+def _radial(fn):
+    """``fn(|q|)`` of ``(q_x, q_y)``, safe at ``q = 0``."""
+    def t(qx, qy):
+        q2 = qx * qx + qy * qy
+        pos = q2 > 0
+        return fn(jnp.where(pos, jnp.sqrt(where_safe(pos, q2, 1.0)), 0.0))
+    return t
+
+
+def _infinite_layer_factor(layer, grid):
+    """Speed-independent ``y`` integrals ``(A, B)`` of ``T_1 S_y`` and ``T_1 S_y^2`` on an infinite
+    layer (:func:`jaxroll.aperiodic.surface_factor`)."""
+    t1 = _radial(lambda q: static_compliance(layer, q))
+    dx, W = grid.spacing, grid.window
+    return _aperiodic.surface_factor(t1, dx, W, False), _aperiodic.surface_factor(t1, dx, W, True)
+
+
+def _infinite_kernel_builder(material, layer, grid: FixedGrid):
+    """``V -> WindowKernel`` of an infinite layer (``grid.period = None``): the aperiodic influence
+    coefficients of :mod:`jaxroll.aperiodic`, with the layer's ``y`` integrals done once for a
+    quasi-static layer and ``G*`` evaluated per speed on the ``q_x`` nodes only."""
+    dx, W = grid.spacing, grid.window
+    qx = (2.0 * jnp.pi / dx) * _aperiodic.fourier_rule(W, _aperiodic.W_CUT_SURFACE).w
+    if is_quasistatic(layer):
+        A, B = _infinite_layer_factor(layer, grid)
+
+        def build(V):
+            inv_g = 1.0 / jnp.conj(complex_modulus(material, qx * V))
+            return _aperiodic.surface_window_kernel(A, B, inv_g, dx, W)
+    else:
+        def build(V):
+            def t(qxx, qyy):
+                return surface_compliance(layer, material, qxx, qyy, V)
+
+            A = _aperiodic.surface_factor(t, dx, W, False)
+            B = _aperiodic.surface_factor(lambda a, b: jnp.imag(t(a, b)), dx, W, True)
+            return _aperiodic.surface_window_kernel(A, B, None, dx, W)
     return build
 
 
@@ -322,11 +362,16 @@ def static_pressure(material, layer: Layer, R, P, grid: FixedGrid, *, modulus: s
         if not is_quasistatic(layer):
             raise ValueError('modulus="glassy" needs a quasi-static layer (rho = 0)')
         # T = T_1/G(inf): a quasi-static layer at the glassy modulus (a real, elastic kernel)
-        f = _layer_factor(layer, grid.n_cells, grid.period, grid.axis_terms())
-        Kr = jnp.sum(f.A, axis=(2, 3)) / glassy_modulus(material)
-        K = jax.lax.complex(Kr, jnp.zeros_like(Kr))
-        kernel = _contact.periodic_window_kernel(K, jnp.zeros_like(Kr), grid.n_cells, grid.period,
-                                                 (grid.window, grid.window))
+        if grid.period is None:
+            A, B = _infinite_layer_factor(layer, grid)
+            inv_g = jnp.full(A.shape[0], 1.0 / glassy_modulus(material)).astype(complex)
+            kernel = _aperiodic.surface_window_kernel(A, B, inv_g, grid.spacing, grid.window)
+        else:
+            f = _layer_factor(layer, grid.n_cells, grid.period, grid.axis_terms())
+            Kr = jnp.sum(f.A, axis=(2, 3)) / glassy_modulus(material)
+            K = jax.lax.complex(Kr, jnp.zeros_like(Kr))
+            kernel = _contact.periodic_window_kernel(K, jnp.zeros_like(Kr), grid.n_cells, grid.period,
+                                                     (grid.window, grid.window))
     else:
         raise ValueError(f'modulus must be "static" or "glassy"; got {modulus!r}')
     r_est = estimate_contact_size(material, layer, R, P, "sphere")
@@ -353,6 +398,9 @@ def direct_elastic_rolling_resistance(material, layer: Layer, R, P, V, grid: Fix
         carried by the modes beyond the grid's Nyquist frequency (a truncation indicator),
         ``pressure``, ``grid``, ``penetration``, ``result``.
     """
+    if grid.period is None:
+        raise ValueError("Direct(pressure='elastic') evaluates the periodic [ZG] eq. 26 on the grid's period: give "
+                         "a periodic grid (jr.AutoGrid(period='auto') or a FixedGrid with a period)")
     st = static_pressure(material, layer, R, P, grid, tol=tol, max_steps=max_steps)
     dA = grid.spacing * grid.spacing
     value = kernel_builder(material, layer, grid)(V).resistance(st.pressure, dA)

@@ -112,8 +112,12 @@ def test_resolve_covers_the_envelope_and_matches_eager_autogrid():
     a = jr.rolling_resistance(SLS, layer, radius=R, load=100.0, speed=0.01, method="full")
     b = jr.rolling_resistance(SLS, layer, radius=R, load=100.0, speed=0.01, method=m)
     assert float(a.value) == float(b.value)
-    # over an envelope: the finest cell, a window for the largest contact, the longest period
+    # over an envelope: the finest cell, a window for the largest contact, an infinite layer by
+    # default (a period long enough for the slowest memory with period="auto")
     env = jr.Full().resolve(SLS, layer, radius=R, loads=[10.0, 150.0], speeds=[1e-4, 0.1])
+    assert env.grid.period is None
+    env = jr.Full(grid=jr.AutoGrid(period="auto")).resolve(SLS, layer, radius=R, loads=[10.0, 150.0],
+                                                           speeds=[1e-4, 0.1])
     r10, r150 = (float(jr.estimate_contact_size(SLS, layer, R, P)) for P in (10.0, 150.0))
     assert float(env.grid.spacing) == pytest.approx(r10 / 12, rel=1e-12)
     assert env.grid.window * float(env.grid.spacing) >= 2 * 1.25 * r150

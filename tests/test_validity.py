@@ -194,13 +194,16 @@ def test_memory_is_estimated_before_allocation_and_refused_above_the_budget(monk
     # the paper's example at 1 m/s: the period follows V tau (5 m, 16384 cells along x) but the
     # Fourier cut-off per axis follows each period, so the modes grow like Lx Ly, not Lx^2
     # (before: 8192^2 modes, the process was killed; measured now: 1.1 GB above baseline, 9 s)
-    grid = jr.Full().resolve(mat, layer, radius=0.02, loads=[100.0], speeds=[1.0]).grid
+    periodic = jr.Full(grid=jr.AutoGrid(period="auto"))
+    grid = periodic.resolve(mat, layer, radius=0.02, loads=[100.0], speeds=[1.0]).grid
     nx, ny = grid.axis_terms()
     assert nx == grid.n_cells[0] and ny == grid.n_cells[1] < nx / 30
     assert grid.memory_estimate(2) < 1.5 * 2**30
+    # the default, an infinite layer: memory follows the window (tests/test_aperiodic.py)
+    assert jr.Full().resolve(mat, layer, radius=0.02, loads=[100.0], speeds=[1.0]).grid.memory_estimate(2) < 2**27
     monkeypatch.setenv("JAXROLL_MEMORY_BUDGET", "50MB")
     with pytest.raises(ValueError, match=r"needs about 1\.\d GiB of working memory, above the budget"):
-        jr.rolling_resistance(mat, layer, radius=0.02, load=100.0, speed=1.0, method="full")
+        jr.rolling_resistance(mat, layer, radius=0.02, load=100.0, speed=1.0, method=periodic)
     # a fixed grid is checked too, also when the call is traced
     big = jr.Full(grid=jr.FixedGrid(1e-4, 55, period=0.8))
     with pytest.raises(ValueError, match="JAXROLL_MEMORY_BUDGET"):
