@@ -1,6 +1,6 @@
 """Benchmark of the full 3D rolling sphere (``jr.Full``, geometry "sphere"): the paper's reference case.
 
-Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3]
+Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3] [--period 0.2 | none]
 
 Reference case ([ZG] Table 1 / docs/design.md section 5): 23 log-spaced speeds 1e-4..1 m/s x 15
 loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at the paper's
@@ -37,13 +37,16 @@ def main():
     ap.add_argument("--H", type=float, default=0.03)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--tol", type=float, default=1e-10, help="contact solver tolerance (scaled residual)")
+    ap.add_argument("--period", default="0.2", help="period [m] (the paper's 0.2) or 'none' (an infinite layer)")
     args = ap.parse_args()
     if args.quick:
         speeds, loads, spacing, n_terms, repeat = np.logspace(-4, 0, 6), np.linspace(10, 150, 4), 5e-4, 250, 1
     else:
         speeds, loads, spacing, n_terms, repeat = (np.logspace(-4, 0, 23), np.linspace(10, 150, 15), 2.5e-4, 500,
                                                    args.repeat)
-    period = 0.2
+    period = None if args.period.lower() == "none" else float(args.period)
+    if period is None:
+        n_terms = None
     mat = jr.StandardLinearSolid(G0, TAU, F)
     r_max = float(jr.estimate_contact_size(mat, jr.Layer(args.H), R, float(loads.max())))
     window = max(41 if not args.quick else 21, 2 * math.ceil(1.15 * r_max / spacing) + 1)
@@ -57,7 +60,8 @@ def main():
     theta = (G0, TAU, F, args.H, jnp.asarray(loads), jnp.asarray(speeds))
     print(f"device: {jax.devices()[0].device_kind} x {len(jax.devices())}; cpu count {os.cpu_count()}; "
           f"load avg {os.getloadavg()[0]:.1f} (shared machine)")
-    print(f"resolution: L = {period} m, a = {spacing * 1e3} mm ({round(period / spacing)}^2 cells), "
+    cells = "infinite layer" if period is None else f"{round(period / spacing)}^2 cells"
+    print(f"resolution: L = {period} m, a = {spacing * 1e3} mm ({cells}), "
           f"window {window}^2, n_terms {n_terms}, tol {args.tol:g}; {len(speeds)} speeds x {len(loads)} loads; "
           f"H = {args.H} m")
     comp, med, (v, st, it), compiled = aot(table, *theta, repeat=repeat)
@@ -73,8 +77,10 @@ def main():
         print(f"compiled temp memory: {compiled.memory_analysis().temp_size_in_bytes / 2**20:.0f} MiB")
     except Exception:  # noqa: BLE001 (not every backend reports it)
         pass
-    size = f"{len(speeds)}x{len(loads)}, a = {spacing * 1e3:g} mm, {n_terms} terms"
-    summary("bench_sphere3d.py" + (" --quick" if args.quick else ""), per_case, comp,
+    size = f"{len(speeds)}x{len(loads)}, a = {spacing * 1e3:g} mm, H = {args.H * 1e3:g} mm, " + (
+        "infinite layer" if period is None else f"L = {period} m, {n_terms} terms")
+    summary("bench_sphere3d.py" + (" --quick" if args.quick else "") + f" --H {args.H} --period {args.period}",
+            per_case, comp,
             "paper full 3D: 54 min per reference case", f"{PAPER_S / per_case:.0f}x",
             f"{size}; run {med:.2f} s scaled x{345 / v.size:.1f} to 345 points")
 

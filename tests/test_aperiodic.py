@@ -78,17 +78,18 @@ def test_surface_halfspace_against_love_and_its_truncation():
 
 
 @pytest.mark.parametrize("H", [0.005, np.inf])
-@pytest.mark.parametrize("V", [1e-4, 1.0])
+@pytest.mark.parametrize("V", [1e-4, 1e-2])
 def test_line_periodic_sums_converge_to_the_aperiodic_kernel(H, V):
-    """Periodic alias sums (8 images + tail) at periods of 3.3 m and 52 m against the aperiodic
-    coefficients: the compliance agrees to 1e-5 of the self compliance (the tail models of both:
-    1.5e-6 measured for the aperiodic one, 8e-6 for the periodic), the dissipation to 5e-5 of its
-    largest coefficient, and the error does not grow with the period."""
+    """Periodic alias sums (8 images + tail) at periods of 0.8 m and 6.6 m against the aperiodic
+    coefficients: at the longer period the compliance agrees to 1e-6 of the self compliance and
+    the dissipation to 5e-6 of its largest coefficient (measured <= 1.8e-7 and 1e-6: the two tail
+    models), and the error does not grow with the period (on the half-space it falls 20-60x: the
+    log-kernel images)."""
     dx, W = 5e-5, 60
     fn = compliance_function(SLS, jr.Layer(H), V)
     c, D = (np.asarray(a) for a in aperiodic.line_offsets(fn, dx, W, not np.isfinite(H)))
     errs = []
-    for N in (2**16, 2**20):
+    for N in (2**14, 2**17):
         K, K2 = contact.periodic_kernel(fn, (N * dx,), (N,), images=8, dissipation=True)
         cp = np.asarray(contact.periodic_offsets(K, (N,), (W,)))
         Dp = np.asarray(contact.periodic_offsets(K2, (N,), (W,))) / dx
@@ -96,7 +97,7 @@ def test_line_periodic_sums_converge_to_the_aperiodic_kernel(H, V):
         ec = np.max(np.abs((cp - cp[W - 1]) - (c - c[W - 1]))) / abs(c[W - 1])
         eD = np.max(np.abs(Dp - D)) / np.abs(D).max()
         errs.append((ec, eD))
-    assert errs[-1][0] < 1e-5 and errs[-1][1] < 5e-5, errs
+    assert errs[-1][0] < 1e-6 and errs[-1][1] < 5e-6, errs
     assert errs[-1][0] <= errs[0][0] * 1.01
 
 
