@@ -1,6 +1,6 @@
 """Benchmark of the full 3D rolling sphere (``jr.Full``, geometry "sphere"): the paper's reference case.
 
-Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3] [--period 0.2 | none]
+Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3] [--period 0.2 | none] [--grad]
 
 Reference case ([ZG] Table 1 / docs/design.md section 5): 23 log-spaced speeds 1e-4..1 m/s x 15
 loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at the paper's
@@ -37,6 +37,7 @@ def main():
     ap.add_argument("--H", type=float, default=0.03)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--tol", type=float, default=1e-10, help="contact solver tolerance (scaled residual)")
+    ap.add_argument("--grad", action="store_true", help="also time the gradient of the table w.r.t. G0, tau, f, H")
     ap.add_argument("--period", default="0.2", help="period [m] (the paper's 0.2) or 'none' (an infinite layer)")
     args = ap.parse_args()
     if args.quick:
@@ -77,12 +78,22 @@ def main():
         print(f"compiled temp memory: {compiled.memory_analysis().temp_size_in_bytes / 2**20:.0f} MiB")
     except Exception:  # noqa: BLE001 (not every backend reports it)
         pass
+    grad_note = ""
+    if args.grad:
+        def objective(G, tau, f, H, loads, speeds):
+            value, result, _ = table(G, tau, f, H, loads, speeds)
+            return jnp.sum(jnp.where(result == 0, value, 0.0))
+
+        gcomp, gmed, g, _ = aot(jax.grad(objective, argnums=(0, 1, 2, 3)), *theta, repeat=repeat)
+        print(f"gradient d(sum R_r)/d(G0, tau, f, H): compile {gcomp:.1f} s; run median {gmed:.2f} s "
+              f"({gmed / med:.2f}x the forward table); {[float(x) for x in g]}")
+        grad_note = f"; gradient (G0, tau, f, H) {gmed:.2f} s = {gmed / med:.2f}x, compile {gcomp:.1f} s"
     size = f"{len(speeds)}x{len(loads)}, a = {spacing * 1e3:g} mm, H = {args.H * 1e3:g} mm, " + (
         "infinite layer" if period is None else f"L = {period} m, {n_terms} terms")
     summary("bench_sphere3d.py" + (" --quick" if args.quick else "") + f" --H {args.H} --period {args.period}",
             per_case, comp,
             "paper full 3D: 54 min per reference case", f"{PAPER_S / per_case:.0f}x",
-            f"{size}; run {med:.2f} s scaled x{345 / v.size:.1f} to 345 points")
+            f"{size}; run {med:.2f} s scaled x{345 / v.size:.1f} to 345 points{grad_note}")
 
 
 if __name__ == "__main__":
