@@ -1,6 +1,6 @@
 """Run every benchmark's reduced-size configuration in turn and print one markdown table.
 
-    python benchmarks/run_all.py [--only bench_direct,bench_fit] [--timeout 900]
+    python benchmarks/run_all.py [--only bench_direct,bench_fit] [--timeout 900] [--reference]
 
 Each script prints ``SUMMARY {json}`` lines (``_timing.summary``: command, median, compile,
 baseline, ratio, note); this collects them into one table, with a row per script that failed or
@@ -37,6 +37,16 @@ QUICK = [
     ("bench_tamaas.py", ["--quick"]),  # needs the optional peer tamaas (pip install ".[peer]")
 ]
 
+#: Full-size rows added by ``--reference``: the paper's reference case (23 x 15) in the full 3D
+#: model at H = 2, 5, 30 mm on an infinite layer and on the paper's 0.2 m period (gradient at
+#: 30 mm), and the paper's sphere at 0.01..10 m/s on both surfaces.
+REFERENCE = [
+    *[("bench_sphere3d.py", ["--H", H, "--period", p, "--repeat", "5"] + (["--grad"] if H == "0.03" and p == "none"
+                                                                         else []))
+      for H in ("0.002", "0.005", "0.03") for p in ("none", "0.2")],
+    ("bench_aperiodic.py", []),
+]
+
 
 def _fmt(x):
     if not isinstance(x, (int, float)) or x != x:
@@ -48,13 +58,14 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", default="", help="comma-separated script names (without .py)")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per script")
+    ap.add_argument("--reference", action="store_true", help="add the full-size reference-case rows (~6 min)")
     args = ap.parse_args()
     only = {s if s.endswith(".py") else s + ".py" for s in args.only.split(",") if s}
     env = dict(os.environ)
     root = str(HERE.parent)
     env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     rows = []
-    for script, extra in QUICK:
+    for script, extra in QUICK + (REFERENCE if args.reference else []):
         if only and script not in only:
             continue
         cmd = [sys.executable, str(HERE / script), *extra]
