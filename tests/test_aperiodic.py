@@ -101,7 +101,7 @@ def test_line_periodic_sums_converge_to_the_aperiodic_kernel(H, V):
     assert errs[-1][0] <= errs[0][0] * 1.01
 
 
-@pytest.mark.parametrize("H", [0.005, np.inf])
+@pytest.mark.parametrize("H", [0.005, pytest.param(np.inf, marks=pytest.mark.slow)])
 def test_surface_periodic_sums_converge_at_second_order_in_the_period(H):
     """The 3D periodic kernel (same cut-off) converges to the aperiodic one like (Vtau/L)^2:
     measured 16-50x smaller error per 4x longer period."""
@@ -172,7 +172,8 @@ def test_prony_far_from_the_rolling_time_scale_is_elastic(limit):
 PRONY10 = jr.GeneralizedMaxwell(G_inf=3e6, G=np.full(10, 1e6), tau=np.logspace(-6, 4, 10))
 
 
-@pytest.mark.parametrize("material", [PRONY10, jr.at_temperature(PRONY10, jr.WLF(8.86, 101.6, 293.15), 313.15)],
+@pytest.mark.parametrize("material", [PRONY10, pytest.param(jr.at_temperature(PRONY10, jr.WLF(8.86, 101.6, 293.15),
+                                                                     313.15), marks=pytest.mark.slow)],
                          ids=["prony10", "prony10-WLF"])
 def test_any_material_at_any_speed(material):
     """A 10-term Prony spectrum (1e-6..1e4 s, 10 decades) at 1e-6 and 10 m/s in the full 2D, full 3D
@@ -204,13 +205,14 @@ def test_any_material_at_any_speed(material):
             assert abs(values["full2d"] / float(periodic.value) - 1) < 1e-3
 
 
-def test_gradients_through_the_aperiodic_kernels():
+@pytest.mark.parametrize("geometry", ["cylinder", pytest.param("sphere", marks=pytest.mark.slow)])
+def test_gradients_through_the_aperiodic_kernels(geometry):
     """d R_r/d(G0, tau, H) of the full 2D and 3D models on an infinite layer against central
     differences (relative step 1e-5, central error ~1e-9; the contact set is fixed at this step)."""
     lay = jr.Layer(0.01)
-    cases = ((jr.Full(grid=jr.FixedGrid(2e-4, 80)), "cylinder", 3000.0),
-             (jr.Full(grid=jr.FixedGrid(6e-4, 17)), "sphere", 60.0))
-    for method, geometry, P in cases:
+    cases = {"cylinder": (jr.Full(grid=jr.FixedGrid(2e-4, 80)), "cylinder", 3000.0),
+             "sphere": (jr.Full(grid=jr.FixedGrid(6e-4, 17)), "sphere", 60.0)}
+    for method, geometry, P in (cases[geometry],):
         def f(x):
             mat = jr.StandardLinearSolid(x[0], x[1], 1.0)
             return jr.rolling_resistance(mat, jr.Layer(x[2]), radius=0.02, load=P, speed=0.01, method=method,

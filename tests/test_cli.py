@@ -239,6 +239,7 @@ def test_method_options_reject_bad_values(argv, match, capsys):
     assert match in capsys.readouterr().err
 
 
+@pytest.mark.slow  # 15 s; the CLI fit path runs by default with the direct method, full-model fits in test_fit.py
 def test_fit_full_sphere_with_a_fixed_grid_recovers_tau(tmp_path, capsys):
     """``--method full`` with a fixed coarse grid given as options: the data come from
     :func:`jaxroll.rolling_resistance_grid` called directly on that grid (the oracle), so the

@@ -44,8 +44,9 @@ def test_incompressible_closed_form_matches_expm(qh, eps_mag, phase):
     assert abs(val - ref) <= 1e-12 * abs(ref)
 
 
-@pytest.mark.parametrize("eps_mag,phase", [(0.0, 0.0), (0.3, -0.3),
-                                           pytest.param(0.9, -1.0, marks=pytest.mark.slow)])  # 8700-digit expm: 14 s
+@pytest.mark.parametrize("eps_mag,phase", [(0.0, 0.0), pytest.param(0.3, -0.3, marks=pytest.mark.slow),
+                                           pytest.param(0.9, -1.0, marks=pytest.mark.slow)])  # 8700-digit expm: 14 s each
+# (suite time: the elastic case runs by default; the two viscoelastic phases under -m slow)
 def test_incompressible_qh_1e4_matches_expm(eps_mag, phase):
     # qH = 1e4 needs a ~8700-digit expm (a few seconds per point)
     q, qx, qy, H, G, rho, V, eps = _case(1e4, eps_mag, phase)

@@ -428,7 +428,8 @@ def test_edge_smoothing_removes_the_contact_set_jitter():
     assert w_smooth < 2e-5, w_smooth  # and the smoothing removes it (>= 10x; measured ~300x)
 
 
-def test_edge_smoothing_tends_to_the_exact_contact():
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["reduced", "full"])
+def test_edge_smoothing_tends_to_the_exact_contact(slow):
     """eps -> 0 recovers the exact discrete problem: the deviation falls at least linearly in kappa
     (measured -4.5 / -1.4 / -0.37 % at kappa = 0.5 / 0.25 / 0.125, V = 1e-2 m/s, 100 N)."""
     theta = jnp.asarray([G0, TAU, F])
@@ -436,10 +437,11 @@ def test_edge_smoothing_tends_to_the_exact_contact():
     exact = float(_edge_sweep(theta, loads, speeds, None)[0][0, 0])
     # kappa in steps of 4 (each kappa is a separate compiled program): at least linear means a
     # ratio > 4 per step (measured -4.5 / -0.37 % at 0.5 / 0.125)
-    dev = [float(_edge_sweep(theta, loads, speeds, k)[0][0, 0]) / exact - 1 for k in (0.5, 0.125, 0.03125)]
+    kappas = (0.5, 0.125, 0.03125) if slow else (0.5, 0.125)
+    dev = [float(_edge_sweep(theta, loads, speeds, k)[0][0, 0]) / exact - 1 for k in kappas]
     assert all(d < 0 for d in dev)  # the soft edge lets cells with a small gap carry load: less asymmetry
     assert dev[0] / dev[1] > 4.0, dev
-    assert abs(dev[-1]) < 5e-4, dev  # 1/32: well inside the discretisation error of this grid (~3 %)
+    assert abs(dev[-1]) < (5e-4 if slow else 6e-3), dev  # 1/32: well inside this grid's discretisation error (~3 %)
 
 
 def test_edge_smoothing_gradients_vs_finite_differences():
