@@ -25,6 +25,11 @@ sign fix), the rolling resistance ``R_r = -int p du/dx dA`` is, by Parseval,
       periodic:  R_r = (2 P'^2 / L) sum_{m=1..N} q_m S(q_m a)^2 Im T(q_m, 0)
       aperiodic: R_r = (P'^2 / (pi a^2)) int_0^inf x S(x)^2 Im T(x/a, 0) dx.
 
+The pressure model (:func:`select_pressure`): ``pressure="auto"`` takes Jaffar's thick model
+for ``gamma = r_c/H <= 0.9``, the thin model beyond ``gamma_thick = 1.15``, and a smooth blend
+of the two in between (one radius, one evaluation of ``T``; flagged ``outside_pressure_model``
+like everything with ``0.9 < gamma < 10``), so the value is continuous and C1 in every input.
+
 Periodic and aperiodic results are different physics at high speed: the periodic series is a
 train of rollers a period apart, and when ``V tau > ~L`` the layer does not recover between
 passes (-2 to -6 % at 1-10 m/s for L = 0.2 m, docs/design.md section 2). The aperiodic value is the
@@ -237,20 +242,54 @@ def _u_rule(settings: QuadratureSettings):
 # --------------------------------------------------------------------------------------
 # pressure-model selection
 
+#: The ``"auto"`` pressure blends Jaffar's thick model into the thin one while the thick
+#: model's ``gamma`` rises from :data:`THICK_MAX_GAMMA` (0.9) to this value, below the largest
+#: ``gamma`` of Jaffar's law (``gamma_max`` = 1.2035 at ``nu = 0.5``, more for ``nu < 0.5``).
+BLEND_END_GAMMA = 1.15
+
+
+def _thick_weight(g_k, exists):
+    """Weight of the thick model in the ``"auto"`` blend: 1 for ``g_k <= 0.9``, 0 from
+    ``BLEND_END_GAMMA`` on (and where Jaffar's law has no solution), the quintic smoothstep
+    (C2) in between. ``g_k`` is the thick model's own ``gamma``, smooth in every input below
+    ``gamma_max``, so the weight is too."""
+    t = jnp.clip((g_k - THICK_MAX_GAMMA) / (BLEND_END_GAMMA - THICK_MAX_GAMMA), 0.0, 1.0)
+    return jnp.where(exists, 1.0 - t * t * t * (10.0 - 15.0 * t + 6.0 * t * t), 0.0)
+
+
+def _blend(w, a, b):
+    """``w a + (1 - w) b``: the one place where the two models of ``"auto"`` are mixed
+    (exactly ``a`` where ``w = 1`` and ``b`` where ``w = 0``, bit for bit)."""
+    return jnp.where(w == 1.0, a, jnp.where(w == 0.0, b, w * a + (1.0 - w) * b))
+
+
 def select_pressure(material, layer, radius, load, *, pressure="auto", geometry="sphere", modulus="static",
                     speed=None):
-    """Pressure model, contact radius and validity for ``pressure`` (static string).
+    """Pressure model(s), contact radius and validity for ``pressure`` (static string).
 
-    ``"auto"``: Jaffar's thick model where its load law has a solution (``gamma`` up to
-    ``gamma_max`` ~ 1.2 for spheres; ``gamma <= 1.2`` for cylinders), else the thin model
-    (``"thin"`` for ``nu = 0.5``, ``"thin-compressible"`` for ``nu < 0.5``). ``valid`` is True
-    for thick with ``gamma <= 0.9`` ([ZG] 4.3) and thin with ``gamma >= 10``
-    (:data:`jaxroll.pressure.THIN_MIN_GAMMA`); in between ([ZG] 4.5) no model applies.
+    ``"auto"``: Jaffar's thick model for ``gamma <= 0.9`` ([ZG] 4.3; always on a half-space),
+    the thin model (``"thin"`` for ``nu = 0.5``, ``"thin-compressible"`` for ``nu < 0.5``)
+    beyond the band below, both valid. ``valid`` is True for thick with ``gamma <= 0.9`` and
+    thin with ``gamma >= 10`` (:data:`jaxroll.pressure.THIN_MIN_GAMMA`); in between ([ZG] 4.5)
+    no model applies and the result is flagged ``outside_pressure_model``.
+
+    The blend: Jaffar's law has no solution beyond ``gamma_max`` (1.2 for spheres at
+    ``nu = 0.5``), so a plain switch there made ``R_r`` jump by 20-80 % (docs/design.md
+    section 2). Instead the thick model's weight ``w`` falls smoothly (C2) from 1 to 0 while its
+    own ``gamma_thick`` rises from 0.9 to :data:`BLEND_END_GAMMA` (1.15, below ``gamma_max``
+    for every ``nu``; the cylinder's Hertz model always exists): the contact radius is
+    ``w r_thick + (1 - w) r_thin`` and the rolling resistance is ``w R_thick + (1 - w)
+    R_thin``, both shapes taken at that one radius (one evaluation of the layer compliance).
+    The value is continuous and C1 in every input (``modulus="dynamic"``: only continuous where
+    the *static* Jaffar radius that sets its frequency does not exist; that radius is clamped);
+    ``w = 0`` wherever the thick solution does not exist. ``regime`` names the thick model
+    wherever ``w > 0``.
 
     Returns:
-        ``(models, r_c, gamma, code, valid, choice)``: the tuple of static model names involved,
+        ``(models, r_c, gamma, code, valid, weight)``: the tuple of static model names involved,
         contact radius [m], ``gamma = r_c/H``, regime code (:data:`jaxroll.result.REGIMES`),
-        validity, and ``choice`` (index into ``models``; an int array).
+        validity, and ``weight``, the weight of ``models[0]`` (``1 - weight`` that of
+        ``models[1]``, if any).
     """
     R, P = as_float(radius), as_float(load)
     H = as_float(layer.H)
@@ -264,19 +303,15 @@ def select_pressure(material, layer, radius, load, *, pressure="auto", geometry=
 
     if pressure == "auto":
         r_k, exists = contact_radius(material, layer, R, P, model="thick", **kw)
-        g_k = gamma_of(r_k)
-        if geometry == "cylinder":
-            exists = exists & (g_k <= 1.2)
-        # the thin radius needs finite H; a half-space always takes the thick branch
+        g_k = gamma_of(r_k)  # 0 on a half-space: w = 1
+        w = _thick_weight(g_k, exists)
+        # the thin radius needs finite H
         layer_f = eqx.tree_at(lambda l: l.H, layer, Hf)
         r_t, _ = contact_radius(material, layer_f, R, P, model=thin_name, **kw)
-        g_t = gamma_of(r_t)
-        use_thick = exists | inf_H
-        r_c = jnp.where(use_thick, r_k, r_t)
-        gamma = jnp.where(use_thick, g_k, g_t)
-        code = jnp.where(use_thick, PRESSURE_MODELS["thick"], PRESSURE_MODELS[thin_name])
-        valid = jnp.where(use_thick, g_k <= THICK_MAX_GAMMA, g_t >= THIN_MIN_GAMMA)
-        return ("thick", thin_name), r_c, gamma, code, valid, jnp.where(use_thick, 0, 1)
+        r_c = _blend(w, r_k, r_t)
+        code = jnp.where(w > 0.0, PRESSURE_MODELS["thick"], PRESSURE_MODELS[thin_name])
+        valid = jnp.where(w == 1.0, g_k <= THICK_MAX_GAMMA, (w == 0.0) & (gamma_of(r_t) >= THIN_MIN_GAMMA))
+        return ("thick", thin_name), r_c, gamma_of(r_c), code, valid, w
     if pressure not in PRESSURE_MODELS:
         raise ValueError(f"unknown pressure {pressure!r}; choose from {('auto',) + tuple(PRESSURE_MODELS)}")
     r_c, exists = contact_radius(material, layer, R, P, model=pressure, **kw)
@@ -286,17 +321,15 @@ def select_pressure(material, layer, radius, load, *, pressure="auto", geometry=
     else:
         valid = gamma >= THIN_MIN_GAMMA
     code = jnp.full(jnp.shape(r_c), PRESSURE_MODELS[pressure])
-    return (pressure,), r_c, gamma, code, valid, jnp.zeros(jnp.shape(r_c), dtype=int)
+    return (pressure,), r_c, gamma, code, valid, jnp.ones(jnp.shape(r_c))
 
 
-def _pick(choice, arrays):
-    """``arrays[choice]`` for a traced int ``choice`` (0-d) and a tuple of equal-shape arrays."""
-    if len(arrays) == 1:
-        return arrays[0]
-    out = arrays[0]
-    for i, a in enumerate(arrays[1:], start=1):
-        out = jnp.where(choice == i, a, out)
-    return out
+def _mix(w, outs):
+    """Blend per-model ``(value, err)`` pairs with the thick weight ``w`` (see :func:`_blend`)."""
+    if len(outs) == 1:
+        return outs[0]
+    (va, ea), (vb, eb) = outs
+    return _blend(w, va, vb), _blend(w, ea, eb)
 
 
 # --------------------------------------------------------------------------------------
@@ -350,29 +383,28 @@ def _richardson(values):
     return jnp.where(ok, d2 * d2 / where_safe(ok, d4, 1.0), d2)
 
 
-def _aperiodic_sphere(material, layer, V, P, r_c, models, choice, settings):
-    rules = [_x_rule(m, "sphere", settings) for m in models]
-    x = rules[0][0]
+def _aperiodic_sphere(material, layer, V, P, r_c, models, weight, settings):
+    x = _x_rule(models[0], "sphere", settings)[0]                     # the same nodes for every model
     u, Wu = _u_rule(settings)
-    Wx = _pick(choice, tuple(jnp.asarray(r[1]) for r in rules))       # (3, Nx)
-
     q = jnp.asarray(x) / r_c                                          # (Nx,)
     uu = jnp.asarray(u)                                               # (Nu,)
     h = _im_t_grid(layer, material, q, uu, V) / uu[None, :]           # Im T / u, (Nx, Nu)
     phi3 = h @ jnp.asarray(Wu).T                                       # (Nx, 3): Phi(q_i)
     phi = phi3[:, 0]
-
-    # analytic ends in x
-    Cp = _pick(choice, tuple(jnp.asarray(_ENVELOPE[("sphere", m)]) for m in models))
-    lo = settings.x_lo**3 / 3.0 * phi[0]
-    tail = _power_tail(x[-2:], phi[-2:], Cp[0], Cp[1], 2.0, settings.x_hi)
-
+    lo = settings.x_lo**3 / 3.0 * phi[0]   # analytic low end in x
     scale = P * P / (math.pi**2 * r_c**3)
-    core_x = Wx @ phi                      # full u rule, three x rules
-    core_u = phi3.T @ Wx[0]                # full x rule, three u rules
-    value = scale * (core_x[0] + lo + tail)
-    err = scale * (_richardson(core_x) + _richardson(core_u) + jnp.abs(lo) + jnp.abs(tail))
-    return value, err
+
+    def one(model):
+        Wx = jnp.asarray(_x_rule(model, "sphere", settings)[1])      # (3, Nx)
+        C, p = _ENVELOPE[("sphere", model)]
+        tail = _power_tail(x[-2:], phi[-2:], C, p, 2.0, settings.x_hi)   # analytic high end
+        core_x = Wx @ phi                      # full u rule, three x rules
+        core_u = phi3.T @ Wx[0]                # full x rule, three u rules
+        value = scale * (core_x[0] + lo + tail)
+        err = scale * (_richardson(core_x) + _richardson(core_u) + jnp.abs(lo) + jnp.abs(tail))
+        return value, err
+
+    return _mix(weight, [one(m) for m in models])
 
 
 def _power_tail(x2, g2, C, p, power, x_hi):
@@ -387,20 +419,21 @@ def _power_tail(x2, g2, C, p, power, x_hi):
     return jnp.where(g_pos, val, 0.0)
 
 
-def _aperiodic_cylinder(material, layer, V, P, a, models, choice, settings):
-    rules = [_x_rule(m, "cylinder", settings) for m in models]
-    x = rules[0][0]
-    Wx = _pick(choice, tuple(jnp.asarray(r[1]) for r in rules))
+def _aperiodic_cylinder(material, layer, V, P, a, models, weight, settings):
+    x = _x_rule(models[0], "cylinder", settings)[0]
     q = jnp.asarray(x) / a
     g = _im_t_fast(layer, material, q, q, jnp.zeros_like(q), V)
-    Cp = _pick(choice, tuple(jnp.asarray(_ENVELOPE[("cylinder", m)]) for m in models))
     lo, lo_err = _low_x_cylinder(material, layer, V, a, settings.x_lo)
-    tail = _power_tail(x[-2:], g[-2:], Cp[0], Cp[1], 1.0, settings.x_hi)
     scale = P * P / (math.pi * a * a)
-    core = Wx @ g
-    value = scale * (core[0] + lo + tail)
-    err = scale * (_richardson(core) + lo_err + jnp.abs(tail))
-    return value, err
+
+    def one(model):
+        Wx = jnp.asarray(_x_rule(model, "cylinder", settings)[1])
+        C, p = _ENVELOPE[("cylinder", model)]
+        tail = _power_tail(x[-2:], g[-2:], C, p, 1.0, settings.x_hi)
+        core = Wx @ g
+        return scale * (core[0] + lo + tail), scale * (_richardson(core) + lo_err + jnp.abs(tail))
+
+    return _mix(weight, [one(m) for m in models])
 
 
 #: Gauss-Legendre nodes (in ln x) of the cylinder's low-wavenumber part, and the most decades
@@ -442,32 +475,37 @@ def _low_x_cylinder(material, layer, V, a, x_lo):
     return full + below, jnp.abs(full - coarse) + jnp.abs(below)
 
 
-def _periodic_sphere(material, layer, V, P, r_c, models, choice, Lx, Ly, N):
+def _periodic_sphere(material, layer, V, P, r_c, models, weight, Lx, Ly, N):
     m = jnp.arange(1, N + 1, dtype=jnp.float64)
     n = jnp.arange(0, N + 1, dtype=jnp.float64)
     qx = (2.0 * math.pi / Lx) * m[:, None]
     qy = (2.0 * math.pi / Ly) * n[None, :]
     q = jnp.sqrt(qx * qx + qy * qy)
-    S = _pick(choice, tuple(pressure_transform(q * r_c, model=mod, geometry="sphere") for mod in models))
-    terms = qx * S * S * _im_t_fast(layer, material, q, qx, qy, V)
+    im_t = _im_t_fast(layer, material, q, qx, qy, V)
     wn = jnp.where(n == 0, 1.0, 2.0)[None, :]            # +-n folded (T depends on |q_y|)
-    terms = terms * wn
-    scale = 2.0 * P * P / (Lx * Ly)
-    value = scale * jnp.sum(terms)
     outer = jnp.maximum(m[:, None], n[None, :]) > 0.5 * N
-    shell = scale * jnp.sum(jnp.where(outer, terms, 0.0))
-    return value, jnp.abs(shell)
+    scale = 2.0 * P * P / (Lx * Ly)
+
+    def one(model):
+        S = pressure_transform(q * r_c, model=model, geometry="sphere")
+        terms = qx * S * S * im_t * wn
+        return scale * jnp.sum(terms), jnp.abs(scale * jnp.sum(jnp.where(outer, terms, 0.0)))
+
+    return _mix(weight, [one(mod) for mod in models])
 
 
-def _periodic_cylinder(material, layer, V, P, a, models, choice, L, N):
+def _periodic_cylinder(material, layer, V, P, a, models, weight, L, N):
     m = jnp.arange(1, N + 1, dtype=jnp.float64)
     qx = (2.0 * math.pi / L) * m
-    S = _pick(choice, tuple(pressure_transform(qx * a, model=mod, geometry="cylinder") for mod in models))
-    terms = qx * S * S * _im_t_fast(layer, material, qx, qx, jnp.zeros_like(qx), V)
+    im_t = _im_t_fast(layer, material, qx, qx, jnp.zeros_like(qx), V)
     scale = 2.0 * P * P / L
-    value = scale * jnp.sum(terms)
-    shell = scale * jnp.sum(jnp.where(m > 0.5 * N, terms, 0.0))
-    return value, jnp.abs(shell)
+
+    def one(model):
+        S = pressure_transform(qx * a, model=model, geometry="cylinder")
+        terms = qx * S * S * im_t
+        return scale * jnp.sum(terms), jnp.abs(scale * jnp.sum(jnp.where(m > 0.5 * N, terms, 0.0)))
+
+    return _mix(weight, [one(mod) for mod in models])
 
 
 # --------------------------------------------------------------------------------------
@@ -512,7 +550,7 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
     H = eqx.error_if(H, ~(H > 0), "layer thickness H must be positive (jnp.inf for a half-space)")
     layer = eqx.tree_at(lambda l: l.H, layer, H)
 
-    models, r_c, gamma, code, valid, choice = select_pressure(
+    models, r_c, gamma, code, valid, weight = select_pressure(
         material, layer, R, P, pressure=pressure, geometry=geometry, modulus=modulus, speed=V
     )
 
@@ -521,9 +559,9 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
             raise ValueError("n_terms needs a period (the aperiodic limit is the default)")
         settings = quadrature if quadrature is not None else settings_for_rtol(rtol)
         if geometry == "sphere":
-            value, err = _aperiodic_sphere(material, layer, V, P, r_c, models, choice, settings)
+            value, err = _aperiodic_sphere(material, layer, V, P, r_c, models, weight, settings)
         else:
-            value, err = _aperiodic_cylinder(material, layer, V, P, r_c, models, choice, settings)
+            value, err = _aperiodic_cylinder(material, layer, V, P, r_c, models, weight, settings)
     else:
         if n_terms is None or int(n_terms) < 1:
             raise ValueError("a periodic series needs n_terms >= 1")
@@ -539,9 +577,9 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
         r_c = eqx.error_if(r_c, ~(2.0 * r_c < Lmin),
                            "contact radius larger than half the period: the contact does not fit the period")
         if geometry == "sphere":
-            value, err = _periodic_sphere(material, layer, V, P, r_c, models, choice, Lx, Ly, N)
+            value, err = _periodic_sphere(material, layer, V, P, r_c, models, weight, Lx, Ly, N)
         else:
-            value, err = _periodic_cylinder(material, layer, V, P, r_c, models, choice, Lx, N)
+            value, err = _periodic_cylinder(material, layer, V, P, r_c, models, weight, Lx, N)
 
     pos = value > 0
     trunc = jnp.where(pos, err / where_safe(pos, value, 1.0), jnp.where(err > 0, jnp.inf, 0.0))

@@ -398,14 +398,27 @@ def persson_sphere_halfspace(material, radius, load, speed, contact_radius=None)
         val, _ = integrate.quad(_hertz_sphere_integrand_np, lo, hi, args=(beta,), epsabs=0.0, epsrel=1e-13)
         head += val
 
-    # tail: S^2 = (9/(2 x^6)) [(1 + x^2) + (x^2 - 1) cos 2x - 2 x sin 2x]
+    # tail: S^2 = (9/(2 x^6)) [(1 + x^2) + (x^2 - 1) cos 2x - 2 x sin 2x]. The weight is
+    # divided by beta^2/(1 + beta^2) (the integral is ~ beta^2 for small beta): QAWF honours only
+    # an absolute tolerance (default 1.5e-8), which made the result 7.5e-5 too high for beta < 1e-3
+    norm = beta * beta / (1.0 + beta * beta)
+
     def weight(x):
         bx2 = (beta * x) ** 2
         root = np.sqrt(1.0 + bx2)
-        return bx2 / (root * (root + 1.0))
+        return bx2 / (root * (root + 1.0)) / norm
 
-    smooth, _ = integrate.quad(lambda x: 4.5 * (1.0 + x * x) / x**6 * weight(x), x_split, np.inf, epsabs=0.0, epsrel=1e-13)
-    cos_part, _ = integrate.quad(lambda x: 4.5 * (x * x - 1.0) / x**6 * weight(x), x_split, np.inf, weight="cos", wvar=2.0)
-    sin_part, _ = integrate.quad(lambda x: -9.0 / x**5 * weight(x), x_split, np.inf, weight="sin", wvar=2.0)
-    integral = head + smooth + cos_part + sin_part
+    def smooth_fn(x):
+        return 4.5 * (1.0 + x * x) / x**6 * weight(x)
+
+    # in ln x, with a break where the smooth part bends (x ~ 1/beta; one infinite-range quad
+    # warned of roundoff at beta ~ 1e-6): it falls like x^-2 up to the bend and x^-4 beyond,
+    # so 25 more e-folds leave e^-75 of it out
+    t_bend = np.log(max(x_split, 1.0 / beta))
+    smooth, _ = integrate.quad(lambda t: smooth_fn(np.exp(t)) * np.exp(t), np.log(x_split), t_bend + 25.0,
+                               points=[t_bend], epsabs=0.0, epsrel=1e-13, limit=200)
+    cos_part, _ = integrate.quad(lambda x: 4.5 * (x * x - 1.0) / x**6 * weight(x), x_split, np.inf, weight="cos", wvar=2.0,
+                                 epsabs=1e-15)
+    sin_part, _ = integrate.quad(lambda x: -9.0 / x**5 * weight(x), x_split, np.inf, weight="sin", wvar=2.0, epsabs=1e-15)
+    integral = head + norm * (smooth + cos_part + sin_part)
     return P * P * dJ / (4.0 * np.pi * rc * rc * beta) * integral

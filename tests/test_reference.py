@@ -313,6 +313,21 @@ def test_persson_sphere_vs_brute_force_2d(V):
     assert got == pytest.approx(brute, rel=1e-6)
 
 
+@pytest.mark.parametrize("beta", [7e-7, 1e-5, 6e-4])
+def test_persson_sphere_low_speed_limit(beta):
+    # beta = V tau/r_c -> 0: R_r -> P^2 dJ beta/(8 pi r_c^2) int x^2 S^2 dx, int x^2 S^2 dx =
+    # 9 int j1^2 dx = 3 pi/2; the correction is O(beta) (measured -1.27 beta with mpmath), so
+    # the ratio lies within 2 beta of 1 (+ 1e-7, the oracle's accuracy). Regression: QAWF's
+    # absolute tolerance made the oracle 7.5e-5 too high here, and at beta ~ 7e-7 its tail
+    # integral warned (roundoff)
+    P, R = 50.0, 0.02
+    rc = (3 * P * R / (16 * G0)) ** (1 / 3)
+    dJ = 1 / G0 - 1 / (G0 * (1 + F))
+    limit = P**2 * dJ * beta / (8 * np.pi * rc**2) * 1.5 * np.pi
+    got = ref.persson_sphere_halfspace(MAT, R, P, beta * rc / TAU)
+    assert abs(got / limit - 1) < 2 * beta + 1e-7
+
+
 def test_persson_sphere_vs_periodic_eq26_sum():
     # [ZG] eq. 26 literally (L_x = L_y = L, sign-fixed T), which tends to the aperiodic limit as
     # L grows; error source: periodic images, measured -6e-4 at L = 20 rc, -9e-5 at L = 40 rc

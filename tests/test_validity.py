@@ -41,6 +41,17 @@ def _direct_batch(d, geometry):
     return jax.jit(jax.vmap(one))(*(jnp.asarray(d[k]) for k in ("G0", "tau", "f", "H", "R", "V", "P")))
 
 
+def _summary(label, n, codes, raised=0, errors=()):
+    """One line for the record (visible with ``pytest -s``): draws, valid, flagged by reason
+    (RESULTS names), raised, and the worst valid error against the reference, if any."""
+    codes = np.asarray(codes, dtype=int)
+    flagged = {jr.RESULTS.names[c]: int((codes == c).sum()) for c in np.unique(codes) if c != jr.RESULTS.successful}
+    line = f"\n{label}: {n} draws, {int((codes == 0).sum())} valid, flagged {flagged}, {raised} raised"
+    if len(errors):
+        line += f", worst valid error vs reference {np.max(np.abs(errors)):.2e} ({len(errors)} compared)"
+    print(line)
+
+
 def _assert_valid_means_positive(res):
     value, ok = np.asarray(res.value), np.asarray(res.valid)
     bad = ok & ~(np.isfinite(value) & (value > 0))
@@ -52,23 +63,26 @@ def _assert_valid_means_positive(res):
 def test_direct_valid_results_are_positive_and_match_the_closed_forms(geometry, n):
     d = draws(n, geometry, seed=15 + (geometry == "cylinder"))
     res = _direct_batch(d, geometry)
-    _assert_valid_means_positive(res)
     ok = np.asarray(res.valid)
+    # oracle on a half-space: the stationary Hertz pressure's closed form (cylinder) or 1D
+    # integral (sphere, ~6 ms a call); tolerance: 10 x the quadrature's rtol (1e-4); the
+    # truncation estimate is an order-of-magnitude indicator (direct.py: single cases
+    # under-estimated ~3x), so it must bound the error within 10x, wherever the error matters
+    # against rtol: > 1e-6 (cylinder), > rtol/10 (sphere: at V tau/r_c ~ 45-50 the estimate
+    # dips to 1e-8 while the error is 2.6e-6, 11 of 1554 full-count draws)
+    floor = 1e-6 if geometry == "cylinder" else 1e-5
+    half = np.isinf(d["H"]) & ok
+    oracle = jr.persson_cylinder_halfspace if geometry == "cylinder" else jr.persson_sphere_halfspace
+    ref = np.array([float(oracle(jr.StandardLinearSolid(d["G0"][i], d["tau"][i], d["f"][i]), d["R"][i], d["P"][i],
+                                 d["V"][i])) for i in np.flatnonzero(half)])
+    err = np.abs(np.asarray(res.value)[half] / ref - 1)
+    _summary(f"direct {geometry}", n, res.result, errors=err)
+    _assert_valid_means_positive(res)
     # contact radius <= 0.3 R for every valid result (the pressure model's radius)
     assert np.all(np.asarray(res.contact_radius)[ok] <= MAX_CONTACT_RATIO * d["R"][ok])
     assert ok.sum() > 0.3 * n  # the envelope is mostly inside the method's range
-    if geometry == "cylinder":
-        # oracle: the closed form of the stationary Hertz pressure on a half-space; tolerance:
-        # 10 x the quadrature's rtol (1e-4); the truncation estimate is an order-of-magnitude
-        # indicator (direct.py: single cases under-estimated ~3x), so it must bound the error
-        # within 10x, wherever the error matters against rtol (> 1e-6)
-        half = np.isinf(d["H"]) & ok
-        ref = np.array([float(jr.persson_cylinder_halfspace(jr.StandardLinearSolid(d["G0"][i], d["tau"][i], d["f"][i]),
-                                                            d["R"][i], d["P"][i], d["V"][i]))
-                        for i in np.flatnonzero(half)])
-        err = np.abs(np.asarray(res.value)[half] / ref - 1)
-        assert err.max() < 1e-3, f"worst {err.max():.2e}"
-        assert np.all(err <= 10 * np.asarray(res.truncation)[half] + 1e-6)
+    assert err.max() < 1e-3, f"worst {err.max():.2e}"
+    assert np.all(err <= 10 * np.asarray(res.truncation)[half] + floor)
 
 
 def _full_points(d, geometry, method, k):
@@ -101,19 +115,24 @@ def test_grid_methods_valid_results_are_positive(geometry, method, n):
     r = (3 * d["P"] * d["R"] / (16 * d["G0"])) ** (1 / 3) if geometry == "sphere" else np.sqrt(
         d["P"] * d["R"] / (np.pi * d["G0"]))
     d["V"] = np.minimum(d["V"], 1e3 * r / d["tau"])
-    counts = {"valid": 0, "flagged": 0}
+    codes, raised, errors = [], 0, []
     for k in range(n):
         res = _full_points(d, geometry, method, k)
         if res is None:
+            raised += 1
             continue
         _assert_valid_means_positive(res)
-        counts["valid" if bool(res.valid) else "flagged"] += 1
+        codes.append(int(res.result))
         if geometry == "cylinder" and np.isinf(d["H"][k]) and bool(res.valid):
             mat = jr.StandardLinearSolid(d["G0"][k], d["tau"][k], d["f"][k])
             exact = float(jr.exact_cylinder_halfspace(mat, d["R"][k], d["P"][k], d["V"][k]).rolling_resistance)
-            # tolerance: the default grid's discretisation error (<= 1 % measured, docs: 0.8 %)
-            assert float(res.value) == pytest.approx(exact, rel=0.02)
-    assert counts["valid"] > 0
+            errors.append(float(res.value) / exact - 1)
+    _summary(f"{method} {geometry}", n, codes, raised, errors)
+    # tolerance: the default grid's discretisation error (docs: 0.8 %; full counts, 87 compared:
+    # worst -1.3 % at V tau/a0 = 132, -1.1 % at every V tau/a0 < 1e-4, where the method's own
+    # estimate says 2.3 %)
+    assert np.all(np.abs(errors) < 0.02)
+    assert codes.count(jr.RESULTS.successful) > 0
 
 
 # ------------------------------------------------------------------ checks under jit
