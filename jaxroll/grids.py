@@ -186,11 +186,15 @@ class FixedGrid(eqx.Module):
         jax 0.9.2 CPU (peak resident memory above the process baseline, the compiled program's
         temporary buffers): ~100 B per 3D Fourier mode and 64 B per period cell."""
         if self.period is None:
-            # the aperiodic rule (jaxroll.aperiodic): ~16 W w_Q + 120 nodes per axis; in 3D the
-            # y-integrals (two W-column tables per x node) and one chunk of the node tensor
-            nodes = 16 * self.window * (1 if ndim == 2 else 8) + 160
+            # the quadrature nodes of jaxroll.aperiodic; in 3D the y-integrals (two W-column
+            # tables per x node) and one chunk of the node tensor
+            from . import aperiodic
+
+            wq = aperiodic.W_CUT_SURFACE if ndim == 2 else aperiodic.W_TAIL_LINE
+            nodes = aperiodic.fourier_rule(self.window, wq).w.size
             if ndim == 2:
-                return 64 * (2 * self.window) ** 2 + 48 * nodes * self.window + 400 * 64 * nodes
+                return (64 * (2 * self.window) ** 2 + 48 * nodes * self.window
+                        + 400 * aperiodic.SURFACE_CHUNK * nodes)
             return 64 * 2 * self.window + 200 * nodes
         cells = int(np.prod(self.n_cells)) if ndim == 2 else self.n_cells[0]
         if ndim == 2:

@@ -119,12 +119,18 @@ class _LayerFactor(eqx.Module):
     qx: jax.Array
 
 
+def _radial(fn):
+    """``fn(|q|)`` of ``(q_x, q_y)``, safe at ``q = 0``."""
+    def t(qx, qy):
+        q2 = qx * qx + qy * qy
+        pos = q2 > 0
+        return fn(jnp.where(pos, jnp.sqrt(where_safe(pos, q2, 1.0)), 0.0))
+    return t
+
+
 def _layer_factor(layer, n_cells, period, terms):
     qx, qy, S = _mode_grid(n_cells, period, terms)
-    q2 = qx * qx + qy * qy
-    pos = q2 > 0
-    q = jnp.where(pos, jnp.sqrt(where_safe(pos, q2, 1.0)), 0.0)
-    t1 = static_compliance(layer, q)
+    t1 = _radial(lambda q: static_compliance(layer, q))(qx, qy)
     return _LayerFactor(A=t1 * S, B=qx * t1 * S * S, qx=qx[:, 0, :, 0])
 
 
@@ -190,15 +196,6 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
             K, K2 = sphere_kernel(material, layer, V, n_cells, period, terms)
             return _contact.periodic_window_kernel(K, K2, n_cells, period, window)
     return build
-
-
-def _radial(fn):
-    """``fn(|q|)`` of ``(q_x, q_y)``, safe at ``q = 0``."""
-    def t(qx, qy):
-        q2 = qx * qx + qy * qy
-        pos = q2 > 0
-        return fn(jnp.where(pos, jnp.sqrt(where_safe(pos, q2, 1.0)), 0.0))
-    return t
 
 
 def _infinite_layer_factor(layer, grid):

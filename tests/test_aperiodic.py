@@ -245,3 +245,16 @@ def test_high_speed_limit_of_the_direct_to_full_ratio():
     full = jr.rolling_resistance(mat, jr.Layer(np.inf), method=jr.Full(grid=jr.AutoGrid(cells_per_radius=24)), **kw)
     direct = jr.rolling_resistance(mat, jr.Layer(np.inf), method="direct", **kw)
     assert abs(float(direct.value) / float(full.value) - 2.0 ** (-1 / 3)) < 0.01
+
+
+def test_surface_kernel_with_inertia_tends_to_the_quasi_static_one():
+    """The 3D infinite-layer kernel of a layer with density (no factorisation: T(q_x, q_y) per
+    speed) against the quasi-static factorised path at a density 1e-9 of rubber's: at V = 1 m/s the
+    inertia term (rho V^2/G ~ 3e-13) is below rounding, so the two constructions agree to 1e-9."""
+    dx, W, V = 6e-4, 9, 1.0
+    grid = jr.FixedGrid(dx, W)
+    qs = sphere3d.kernel_builder(SLS, jr.Layer(0.01), grid)(V)
+    inert = sphere3d.kernel_builder(SLS, jr.Layer(0.01, rho=1e-6), grid)(V)
+    for a, b in ((qs.compliance.offsets, inert.compliance.offsets), (qs.dissipation.offsets, inert.dissipation.offsets)):
+        a, b = np.asarray(a), np.asarray(b)
+        assert np.max(np.abs(a - b)) < 1e-9 * np.max(np.abs(a))
