@@ -180,3 +180,79 @@ def newton_root(fun, x0, *, lower=-jnp.inf, upper=jnp.inf, tol=1e-12, max_steps=
     x, (it, res, conv) = jax.lax.custom_root(fun, jnp.asarray(x0, float), solve, tangent_solve, has_aux=True)
     it, res, conv = (jax.lax.stop_gradient(v) for v in (it, res, conv))
     return x, NewtonInfo(iterations=it.astype(int), residual=res, converged=conv > 0.5)
+
+
+def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80):
+    """Solve ``A x = b`` by restarted GMRES with right preconditioning, for real vectors.
+
+    ``matvec(v) = A v``; ``precond(v) = M v`` with ``M ~ A^-1`` (``None``: the identity). Each
+    cycle runs at most ``restart`` Arnoldi steps on ``A M`` from the residual ``r = b - A x``
+    and updates ``x += M y``. It stops when the true residual ``|b - A x|_2 <= atol`` (checked at
+    ``x0`` first, so a converged start costs one ``matvec``) or after ``maxiter`` cycles.
+
+    Written for small Krylov bases on CPU, where ``jax.scipy.sparse.linalg.gmres`` spends as much
+    time in its bookkeeping as in a windowed FFT operator: the basis is stored by rows,
+    orthogonalised by classical Gram-Schmidt (a second pass only where the first lost more than
+    half the norm: Daniel-Gragg-Kaufman-Stewart), the Hessenberg columns are reduced by Givens rotations as they come, and a
+    start ``x0`` is used without an extra ``A`` application at zero.
+
+    Returns:
+        ``(x, residual_norm)``: the solution and ``|b - A x|_2`` (the true residual).
+    """
+    M = (lambda v: v) if precond is None else precond
+    n = b.shape[0]
+    dtype = b.dtype
+    atol = jnp.asarray(atol, dtype)
+
+    def arnoldi_step(c):
+        j, V, R, cs, sn, g = c
+        w = matvec(M(V[j]))
+        h = V @ w  # rows > j of V are zero, so are those entries of h
+        u = w - h @ V
+        beta = jnp.linalg.norm(u)
+
+        def reorthogonalise(_):
+            h2 = V @ u
+            u2 = u - h2 @ V
+            return u2, h + h2, jnp.linalg.norm(u2)
+
+        # a second Gram-Schmidt pass only where cancellation made the first one inaccurate (the
+        # "twice is enough" test of Daniel, Gragg, Kaufman and Stewart)
+        w, h, beta = jax.lax.cond(beta < 0.7071 * jnp.linalg.norm(w), reorthogonalise,
+                                  lambda _: (u, h, beta), None)
+        V = V.at[j + 1].set(w / jnp.where(beta > 0, beta, 1.0))
+        h = h.at[j + 1].set(beta)
+
+        def rotate(i, h):
+            a, e = h[i], h[i + 1]
+            return h.at[i].set(cs[i] * a + sn[i] * e).at[i + 1].set(cs[i] * e - sn[i] * a)
+
+        h = jax.lax.fori_loop(0, j, rotate, h)
+        a, e = h[j], h[j + 1]
+        den = jnp.hypot(a, e)
+        ok = den > 0
+        c_j = jnp.where(ok, a / jnp.where(ok, den, 1.0), 1.0)
+        s_j = jnp.where(ok, e / jnp.where(ok, den, 1.0), 0.0)
+        h = h.at[j].set(den).at[j + 1].set(0.0)
+        g = g.at[j + 1].set(-s_j * g[j]).at[j].set(c_j * g[j])
+        return j + 1, V, R.at[:, j].set(h), cs.at[j].set(c_j), sn.at[j].set(s_j), g
+
+    def cycle(c):
+        x, r, rnorm, k = c
+        V = jnp.zeros((restart + 1, n), dtype).at[0].set(r / rnorm)
+        R = jnp.zeros((restart + 1, restart), dtype)
+        g = jnp.zeros(restart + 1, dtype).at[0].set(rnorm)
+        init = (jnp.asarray(0), V, R, jnp.ones(restart, dtype), jnp.zeros(restart, dtype), g)
+        j, V, R, _, _, g = jax.lax.while_loop(
+            lambda s: (s[0] < restart) & (jnp.abs(s[5][s[0]]) > atol), arnoldi_step, init)
+        used = jnp.arange(restart) < j
+        T = jnp.where(used[:, None] & used[None, :], R[:restart], jnp.eye(restart, dtype=dtype))
+        y = jax.scipy.linalg.solve_triangular(T, jnp.where(used, g[:restart], 0.0), lower=False)
+        x = x + M(y @ V[:restart])
+        r = b - matvec(x)
+        return x, r, jnp.linalg.norm(r), k + 1
+
+    r0 = b - matvec(x0)
+    x, _, rnorm, _ = jax.lax.while_loop(lambda c: (c[2] > atol) & (c[3] < maxiter), cycle,
+                                        (x0, r0, jnp.linalg.norm(r0), jnp.asarray(0)))
+    return x, rnorm
