@@ -60,21 +60,27 @@ load or penetration) by restarted GMRES on the windowed FFT operator, then updat
 ``A = {p > 0 on A} U {g < 0 off A}``; it stops when ``A`` repeats.
 
 GMRES on a 2D window (the sphere) is right-preconditioned (``linear_preconditioner``, on by
-default in 2D, off in 1D; see below) by the inverse of
-the periodic circulant embedding of ``C`` (one FFT pair: divide by the embedding's
-Fourier multiplier, its modulus floored at 1e-3 of the largest), applied to the residual on the
-contact set and masked back to it, with the load/penetration row eliminated exactly (block
-Schur complement). The converged solution is the same (the stopping test stays on the true
-residual); the Krylov iterations drop 4-9x for the 3D sphere at the paper's resolution (e.g.
-``P = 150 N``: 942 -> 101 operator applications per solve) and 2.5-4x in 1D; the same
-preconditioner (transposed for the adjoint) serves the implicit-differentiation solves and,
-with the soft-min weights, the Newton steps of the smoothed contact edge. Measured on 2 CPU
-cores (``benchmarks/bench_precond.py``): 3D single solves 1.8-4.3x faster, the 5 x 4 sweep 5.5x
-(exact) / 4.2x (``edge_smoothing = 0.25``), the 345-point reference sweep 5.4x, a 60-point fit
-evaluation (residual + 3 tangents) 4.2x; values unchanged to 7e-11 relative, derivatives to
-1e-10. In 1D it is off by default: the default cylinder solve gains only 1.1x, and at fine
-resolution (100 cells per half-width, the slow tests of ``tests/test_cylinder.py``) the
-preconditioned GMRES stalled above the tolerance (``linear_solve_failed``) where the plain one converges.
+default in 2D, off in 1D; see below) by the inverse of a periodic approximation of ``C``: its
+coefficients folded onto a period of about one window (:func:`preconditioner_size`, e.g. 56
+cells for the paper's 55-cell window, against the operator's 112-point embedding), divided by
+that operator's Fourier multiplier (its modulus floored at 1e-3 of the largest), applied to the
+residual on the contact set and masked back to it, with the load/penetration row eliminated
+exactly (block Schur complement). The converged solution is the same (the stopping test stays
+on the true residual); the Krylov iterations drop 4-9x for the 3D sphere at the paper's
+resolution (e.g. ``P = 150 N``: 942 -> 101 operator applications per solve, measured with the
+full 112-point embedding; the folded one needs 1-3 % more iterations at a quarter of the cost
+per application) and 2.5-4x in 1D; the same preconditioner (transposed for the adjoint) serves
+the implicit-differentiation solves and, with the soft-min weights, the Newton steps of the
+smoothed contact edge. Values are unchanged to 7e-11 relative, derivatives to 1e-10. In 1D it
+is off by default: the default cylinder solve gains only 1.1x, and at fine resolution (100 cells
+per half-width, the slow tests of ``tests/test_cylinder.py``) the preconditioned GMRES stalled
+above the tolerance (``linear_solve_failed``) where the plain one converges.
+
+Speed (``benchmarks/bench_sphere3d.py``, the paper's reference case of 345 solves): each solve
+takes ~4-5 active-set steps and ~40 operator applications; an operator application is one FFT
+pair pruned to the window (:func:`circulant_window_apply`), a preconditioner application one
+FFT pair of the folded period, and the Krylov bookkeeping (:func:`jaxroll._numerics.gmres`)
+costs less than either.
 
 Differentiation
 ---------------
@@ -130,6 +136,9 @@ __all__ = [
     "periodic_window_kernel",
     "toeplitz_operator",
     "embedding_size",
+    "preconditioner_size",
+    "fold_offsets",
+    "circulant_window_apply",
     "edge_gap_scale",
 ]
 
@@ -308,11 +317,8 @@ def circulant_window_apply(multiplier, p, embedding):
     return jnp.fft.irfft(ph, n=embedding[-1], axis=-1)[..., :shape[-1]]
 
 
-def embedding_size(window: int) -> int:
-    """The FFT size of the circulant embedding of a ``window``-cell Toeplitz operator: the
-    smallest ``2^a 3^b 5^c 7^d >= 2 W - 1`` (``2 W`` itself can hold a large prime factor, e.g.
-    106 = 2 x 53, which made the paper's 53-cell window 1.9x slower than the 55-cell one)."""
-    n = 2 * int(window) - 1
+def _smooth_size(n: int) -> int:
+    """The smallest ``2^a 3^b 5^c 7^d >= n`` (an FFT length without large prime factors)."""
     while True:
         m = n
         for f in (2, 3, 5, 7):
@@ -323,25 +329,46 @@ def embedding_size(window: int) -> int:
         n += 1
 
 
+def embedding_size(window: int) -> int:
+    """The FFT size of the circulant embedding of a ``window``-cell Toeplitz operator: the
+    smallest ``2^a 3^b 5^c 7^d >= 2 W - 1`` (``2 W`` itself can hold a large prime factor, e.g.
+    106 = 2 x 53, which made the paper's 53-cell window 1.9x slower than the 55-cell one)."""
+    return _smooth_size(2 * int(window) - 1)
+
+
+def preconditioner_size(window: int) -> int:
+    """The FFT size of the contact preconditioner's periodic operator on a ``window``-cell axis:
+    the smallest ``2^a 3^b 5^c 7^d >= W + 1``, about half the exact embedding.
+
+    The preconditioner inverts the coefficients folded onto this period (:func:`fold_offsets`):
+    an approximation of the window's Toeplitz operator, as the circulant inverse on the contact
+    set already is. Measured on the paper's reference case (55-cell window: 56 instead of 112
+    points per axis), GMRES needs 1-3 % more iterations and each preconditioner application
+    costs a quarter: the case runs ~17 % faster."""
+    return _smooth_size(int(window) + 1)
+
+
+def fold_offsets(offsets, embedding):
+    """The window's coefficients ``offsets`` (shape ``(2 W_k - 1, ...)``, offset 0 at index
+    ``W_k - 1``) summed onto a periodic array of sizes ``embedding``: entry ``i`` holds every
+    offset ``= i (mod E_k)``. For ``E_k >= 2 W_k - 1`` no two offsets meet: the exact circulant
+    embedding (offsets ``0 .. W-1`` first, zeros, then ``-(W-1) .. -1``); smaller periods alias."""
+    offsets = jnp.asarray(offsets)
+    idx = np.ix_(*[np.arange(-(n // 2), n // 2 + 1) % E for n, E in zip(offsets.shape, embedding)])
+    return jnp.zeros(tuple(embedding), offsets.dtype).at[idx].add(offsets)
+
+
 def toeplitz_operator(offsets) -> WindowedCompliance:
     """The :class:`WindowedCompliance` of coefficients ``offsets`` (shape ``(2 W_k - 1, ...)``,
-    offset 0 at index ``W_k - 1``): the circulant embedding of size ``E_k = embedding_size(W_k)``
-    holds offsets ``0 .. W-1`` first, zeros, then ``-(W-1) .. -1`` at the end."""
+    offset 0 at index ``W_k - 1``), applied through the circulant embedding of size
+    ``E_k = embedding_size(W_k)`` (:func:`fold_offsets`)."""
     offsets = jnp.asarray(offsets)
     shape = []
     for n in offsets.shape:
         if n % 2 == 0:
             raise ValueError(f"offset arrays have odd sizes 2 W - 1; got {offsets.shape}")
         shape.append((n + 1) // 2)
-    emb = offsets
-    for k, w in enumerate(shape):
-        E = embedding_size(w)
-        # reorder axis k: offsets 0..w-1, zero pads, offsets -(w-1)..-1
-        idx = np.concatenate([np.arange(w - 1, 2 * w - 1), np.zeros(E - 2 * w + 1, int), np.arange(0, w - 1)])
-        emb = jnp.take(emb, idx, axis=k)
-        pad = np.ones(E, bool)
-        pad[w:E - w + 1] = False
-        emb = jnp.where(pad.reshape((-1,) + (1,) * (len(shape) - k - 1)), emb, 0.0)
+    emb = fold_offsets(offsets, [embedding_size(w) for w in shape])
     return WindowedCompliance(multiplier=jnp.fft.rfftn(emb), offsets=offsets, shape=tuple(shape))
 
 
@@ -527,8 +554,9 @@ def solve_contact(
             preconditioner (2D windows: its solves converge in ~10-20 iterations, and every
             Arnoldi step orthogonalises against the whole padded basis, so a shorter basis is
             cheaper), 80 without; maxiter ``1600 // restart``.
-        linear_preconditioner: static; right-precondition GMRES with the inverse circulant
-            embedding of ``C`` on the contact set. Default ``None``: on for 2D windows (the
+        linear_preconditioner: static; right-precondition GMRES with the inverse of the
+            folded periodic approximation of ``C`` (:func:`preconditioner_size`) on the contact
+            set. Default ``None``: on for 2D windows (the
             3D sphere: 4-5x faster), off in 1D (see the module docstring).
             The converged solution and its derivatives do not depend on it (to the solver
             tolerance); only the number of GMRES iterations does.
@@ -585,7 +613,7 @@ def solve_contact(
     precondition = ((len(compliance.shape) == 2) if linear_preconditioner is None
                     else bool(linear_preconditioner)) and linear_solver == "gmres"
     if linear_restart is None:
-        linear_restart = 20 if precondition else 80
+        linear_restart = 12 if precondition else 80
     if linear_maxiter is None:
         linear_maxiter = 1600 // linear_restart
     warm = None
@@ -693,21 +721,21 @@ def _solve_contact(
                      maxiter=linear_maxiter)
         return x
 
-    # ---- preconditioner: inverse of the periodic circulant embedding of C on the window ----
+    # ---- preconditioner: inverse of a periodic (circulant) approximation of C ----
     # For the block system [[B, u], [v^T, c]] (B: gap/pressure rows, u: the d column, v: the last
     # row) with an approximate inverse P of B, the exact block elimination
     #     d = (r2 - v.P r1) / (c - v.P u),  p = P (r1 - u d)
     # is applied. P acts on the cells "in contact" (mask; weights s_i of C) as the inverse of the
-    # circulant embedding (an E-periodic operator, divided by its Fourier multiplier) and as a
-    # diagonal elsewhere. The preconditioner uses stop_gradient data only: it changes the GMRES
+    # coefficients folded onto a period of about the window (preconditioner_size: an E-periodic
+    # operator, divided by its Fourier multiplier) and as a diagonal elsewhere. The preconditioner uses stop_gradient data only: it changes the GMRES
     # iterations, not the converged solution, so the implicit derivatives are unaffected.
-    emb = compliance.embedding
-    # The embedded multiplier can vanish: K_0 = 0 (zero-mean periodic displacement) makes the
-    # window sum of the influence coefficients, i.e. the q = 0 mode of the embedding, ~0 when they
+    emb = tuple(preconditioner_size(w) for w in shape)
+    # The folded multiplier can vanish: K_0 = 0 (zero-mean periodic displacement) makes the
+    # window sum of the influence coefficients, i.e. its q = 0 mode, ~0 when they
     # decay within the window (thin layers). Its modulus is floored at _PRECOND_FLOOR of the
     # largest one (phase kept), so the preconditioner stays bounded; this affects only modes the
     # contact set barely sees (the sphere at the paper's resolution has min/max ~ 3e-3: unchanged).
-    mult = sg(compliance.multiplier)
+    mult = jnp.fft.rfftn(fold_offsets(sg(compliance.offsets), emb))
     mod = jnp.abs(mult)
     floor = _PRECOND_FLOOR * jnp.max(mod)
     big = mod >= floor
