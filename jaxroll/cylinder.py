@@ -135,7 +135,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
     """Solve the rolling contact of a rigid cylinder (radius ``R`` [m], load per unit length
     ``P'`` [N/m]) on the window of ``grid`` with the operators ``kernel``
     (:func:`kernel_builder`); ``a_est`` [m] is the stationary half-width estimate (initial
-    contact set, edge smoothing); ``init`` an optional previous contact set (warm start).
+    contact set, edge smoothing); ``init`` an optional :class:`jaxroll.contact.WarmStart` (a solved neighbour).
     Never raises: see ``contact.result``.
 
     ``edge_smoothing``: ``None`` (exact discrete contact) or ``kappa > 0``: smoothed contact
@@ -147,10 +147,8 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
     x = (jnp.arange(W, dtype=float) - 0.5 * (W - 1)) * dx
     h = x * x / (2.0 * R)
     guess = jnp.abs(x) < a_est
-    if init is not None:
-        guess = jnp.where(jnp.any(init), init, guess)
     sol = _contact.solve_contact(
-        kernel.compliance, h, P, dx, initial_contact=guess, tol=tol, max_steps=max_steps,
+        kernel.compliance, h, P, dx, initial_contact=guess, warm_start=init, tol=tol, max_steps=max_steps,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, a_est, R),
     )
     p = sol.pressure

@@ -30,6 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import contact as _contact
 from . import cylinder, direct, slices, sphere3d
 from .contact_size import check_geometry, estimate_contact_size
 from .grids import AutoGrid, FixedGrid, check_memory
@@ -241,24 +242,38 @@ class Full(_GridMethod):
 
     def evaluate_grid(self, material, layer, R, loads, speeds, geometry):
         """The table ``speeds x loads``: the speed-independent layer work once, the kernel once per
-        speed (``lax.map`` over speeds: memory bounded), the loads of a speed in a ``lax.scan`` in
-        the given order, each starting from the previous load's contact set (give loads sorted).
-        Each point equals :meth:`evaluate` to the solver tolerance."""
+        speed (a ``lax.scan`` over speeds: memory bounded), the loads of a speed in a ``lax.scan``
+        in the given order (give loads sorted). Each solve starts from its neighbour
+        (:meth:`jaxroll.contact.WarmStart.stretched`): the previous load's solution stretched by
+        the ratio of the stationary size estimates, or for a speed's first load the previous
+        speed's first solution. Each point equals :meth:`evaluate` to the solver tolerance."""
         model = _FULL_MODELS[geometry]
         build = model.kernel_builder(material, layer, self.grid)
         sizes = jax.vmap(lambda P: estimate_contact_size(material, layer, R, P, geometry))(loads)
-        ndim = 2 if geometry == "sphere" else 1
+        # the stretch and load ratio from each load to the next (the last pair is not used)
+        stretch = jnp.append(sizes[1:] / sizes[:-1], 1.0)
+        ratio = jnp.append(loads[1:] / loads[:-1], 1.0)
+        shape = (self.grid.window,) * self.grid_ndim(geometry)
 
-        def one_speed(V):
+        first_load = jnp.arange(loads.shape[0]) == 0
+
+        def one_speed(first_start, V):
             kernel = build(V)
 
-            def step(prev, args):
-                s = self._solve(model, kernel, R, *args, init=prev)
-                return s.contact.contact, model.result(s, self.grid, layer, V, material)
+            def step(carry, args):
+                start, first = carry
+                P, size, s_next, r_next, is_first = args
+                s = self._solve(model, kernel, R, P, size, init=start)
+                first = jax.tree_util.tree_map(lambda a, b: jnp.where(is_first, a, b),
+                                               _contact.WarmStart.stretched(s.contact, 1.0, 1.0), first)
+                return ((_contact.WarmStart.stretched(s.contact, s_next, r_next), first),
+                        model.result(s, self.grid, layer, V, material))
 
-            return jax.lax.scan(step, jnp.zeros((self.grid.window,) * ndim, bool), (loads, sizes))[1]
+            (_, first), out = jax.lax.scan(step, (first_start, first_start),
+                                           (loads, sizes, stretch, ratio, first_load))
+            return first, out
 
-        return jax.lax.map(one_speed, speeds)
+        return jax.lax.scan(one_speed, _contact.WarmStart.none(shape), speeds)[1]
 
 
 class Slices(_GridMethod):

@@ -269,7 +269,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
     """Solve the rolling contact of a rigid sphere (radius ``R`` [m], load ``P`` [N]) on the
     window of ``grid`` with the operators ``kernel`` (:func:`kernel_builder`); ``r_est`` [m] is
     the stationary contact radius estimate (initial contact set and the edge smoothing's gap
-    scale); ``init`` an optional previous contact set (warm start). Never raises: see
+    scale); ``init`` an optional :class:`jaxroll.contact.WarmStart` (a solved neighbour). Never raises: see
     ``contact.result``.
 
     ``edge_smoothing``: ``None`` (exact discrete complementarity) or ``kappa > 0``: the smoothed
@@ -285,10 +285,8 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
     X, Y = x[:, None], x[None, :]
     h = (X * X + Y * Y) / (2.0 * R)
     guess = (X * X + Y * Y) < r_est * r_est
-    if init is not None:  # warm start: a previous contact set where there is one
-        guess = jnp.where(jnp.any(init), init, guess)
     sol = _contact.solve_contact(
-        kernel.compliance, h, P, dx * dx, initial_contact=guess, tol=tol, max_steps=max_steps,
+        kernel.compliance, h, P, dx * dx, initial_contact=guess, warm_start=init, tol=tol, max_steps=max_steps,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, r_est, R),
     )
     p = sol.pressure
