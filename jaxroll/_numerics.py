@@ -229,7 +229,7 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80):
 
         h = jax.lax.fori_loop(0, j, rotate, h)
         a, e = h[j], h[j + 1]
-        den = jnp.hypot(a, e)
+        den = jnp.sqrt(a * a + e * e)  # Krylov entries are O(|A M|): no overflow to guard
         ok = den > 0
         c_j = jnp.where(ok, a / jnp.where(ok, den, 1.0), 1.0)
         s_j = jnp.where(ok, e / jnp.where(ok, den, 1.0), 0.0)
@@ -245,9 +245,12 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80):
         init = (jnp.asarray(0), V, R, jnp.ones(restart, dtype), jnp.zeros(restart, dtype), g)
         j, V, R, _, _, g = jax.lax.while_loop(
             lambda s: (s[0] < restart) & (jnp.abs(s[5][s[0]]) > atol), arnoldi_step, init)
-        used = jnp.arange(restart) < j
-        T = jnp.where(used[:, None] & used[None, :], R[:restart], jnp.eye(restart, dtype=dtype))
-        y = jax.scipy.linalg.solve_triangular(T, jnp.where(used, g[:restart], 0.0), lower=False)
+
+        def back_substitute(i, y):  # rows j-1 .. 0 of the triangular R y = g
+            k = j - 1 - i
+            return y.at[k].set((g[k] - R[k, :restart] @ y) / R[k, k])
+
+        y = jax.lax.fori_loop(0, j, back_substitute, jnp.zeros(restart, dtype))
         x = x + M(y @ V[:restart])
         r = b - matvec(x)
         return x, r, jnp.linalg.norm(r), k + 1

@@ -121,7 +121,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import scipy.special as sps
-from jax.scipy.ndimage import map_coordinates
 
 from ._numerics import gmres
 from .result import RESULTS, first_failure
@@ -485,6 +484,14 @@ class WarmStart(eqx.Module):
         return cls(jnp.zeros(shape, bool), jnp.zeros(shape), jnp.asarray(0.0), jnp.asarray(False))
 
     @classmethod
+    def of(cls, solution: "ContactSolution") -> "WarmStart":
+        """The start at ``solution`` itself (e.g. for the same load at a neighbouring speed)."""
+        sg = jax.lax.stop_gradient
+        p, mask, d = sg(solution.pressure), sg(solution.contact), sg(solution.penetration)
+        ok = jnp.any(mask) & (jnp.sum(p) > 0) & jnp.all(jnp.isfinite(p)) & jnp.isfinite(d)
+        return cls(mask & ok, jnp.where(ok, p, 0.0), jnp.where(ok, d, 0.0), ok)
+
+    @classmethod
     def stretched(cls, solution: "ContactSolution", stretch, load_ratio) -> "WarmStart":
         """The start for the same contact at ``load_ratio`` times the load of ``solution``,
         whose contact size is expected to be ``stretch`` times as large: the pressure and
@@ -500,14 +507,20 @@ class WarmStart(eqx.Module):
         s, ratio = sg(jnp.asarray(stretch, float)), sg(jnp.asarray(load_ratio, float))
         total = jnp.sum(p)
         ok = jnp.any(mask) & (total > 0) & jnp.all(jnp.isfinite(p)) & jnp.isfinite(solution.penetration)
+        p = jnp.where(ok, p, 0.0)
         total = jnp.where(ok, total, 1.0)
-        grids = jnp.meshgrid(*[jnp.arange(n, dtype=float) for n in p.shape], indexing="ij")
-        coords = []
-        for g in grids:
-            c = jnp.sum(jnp.where(ok, p, 0.0) * g) / total
-            coords.append(c + (g - c) / s)
-        new_mask = map_coordinates(mask.astype(float), coords, order=0, mode="constant", cval=0.0) > 0.5
-        new_p = map_coordinates(jnp.where(ok, p, 0.0), coords, order=1, mode="constant", cval=0.0)
+        new_p, new_mask = p, mask.astype(float)
+        for axis, n in enumerate(p.shape):
+            # target cell i takes the data at c + (i - c)/s (c: centre of pressure on this axis):
+            # interpolation matrices, linear for the pressure, nearest cell for the set
+            k = jnp.arange(n, dtype=float)
+            c = jnp.sum(jnp.moveaxis(p, axis, -1) * k) / total
+            src = c + (k - c) / s
+            linear = jnp.maximum(0.0, 1.0 - jnp.abs(src[:, None] - k[None, :]))
+            nearest = (jnp.round(src)[:, None] == k[None, :]).astype(float)
+            new_p = jnp.moveaxis(jnp.tensordot(linear, new_p, axes=(1, axis)), 0, axis)
+            new_mask = jnp.moveaxis(jnp.tensordot(nearest, new_mask, axes=(1, axis)), 0, axis)
+        new_mask = new_mask > 0.5
         new_p = jnp.where(new_mask, new_p, 0.0) * ratio / s ** p.ndim
         return cls(new_mask & ok, new_p, jnp.where(ok, sg(solution.penetration) * s * s, 0.0), ok)
 

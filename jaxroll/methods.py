@@ -265,7 +265,7 @@ class Full(_GridMethod):
                 P, size, s_next, r_next, is_first = args
                 s = self._solve(model, kernel, R, P, size, init=start)
                 first = jax.tree_util.tree_map(lambda a, b: jnp.where(is_first, a, b),
-                                               _contact.WarmStart.stretched(s.contact, 1.0, 1.0), first)
+                                               _contact.WarmStart.of(s.contact), first)
                 return ((_contact.WarmStart.stretched(s.contact, s_next, r_next), first),
                         model.result(s, self.grid, layer, V, material))
 
