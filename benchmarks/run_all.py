@@ -39,12 +39,13 @@ QUICK = [
 
 #: Full-size rows added by ``--reference``: the paper's reference case (23 x 15) in the full 3D
 #: model at H = 2, 5, 30 mm on an infinite layer and on the paper's 0.2 m period (gradient at
-#: 30 mm), and the paper's sphere at 0.01..10 m/s on both surfaces.
+#: 30 mm), the paper's sphere at 0.01..10 m/s on both surfaces, and tamaas at periods up to 0.4 m.
 REFERENCE = [
     *[("bench_sphere3d.py", ["--H", H, "--period", p, "--repeat", "5"] + (["--grad"] if H == "0.03" and p == "none"
                                                                          else []))
       for H in ("0.002", "0.005", "0.03") for p in ("none", "0.2")],
     ("bench_aperiodic.py", []),
+    ("bench_tamaas.py", []),  # periods 0.05..0.4 m (needs the optional peer tamaas)
 ]
 
 
@@ -58,7 +59,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", default="", help="comma-separated script names (without .py)")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per script")
-    ap.add_argument("--reference", action="store_true", help="add the full-size reference-case rows (~6 min)")
+    ap.add_argument("--reference", action="store_true", help="add the full-size reference-case rows (~10 min)")
     args = ap.parse_args()
     only = {s if s.endswith(".py") else s + ".py" for s in args.only.split(",") if s}
     env = dict(os.environ)
