@@ -193,8 +193,8 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80):
     Written for small Krylov bases on CPU, where ``jax.scipy.sparse.linalg.gmres`` spends as much
     time in its bookkeeping as in a windowed FFT operator: the basis is stored by rows,
     orthogonalised by classical Gram-Schmidt (a second pass only where the first lost more than
-    half the norm: Daniel-Gragg-Kaufman-Stewart), the Hessenberg columns are reduced by Givens rotations as they come, and a
-    start ``x0`` is used without an extra ``A`` application at zero.
+    half the norm: Daniel-Gragg-Kaufman-Stewart), the Hessenberg columns are reduced by Givens
+    rotations as they come, and a start ``x0`` is used without an extra ``A`` application at zero.
 
     Returns:
         ``(x, residual_norm)``: the solution and ``|b - A x|_2`` (the true residual).

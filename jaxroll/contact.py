@@ -43,8 +43,8 @@ V tau)``, to let the material recover between passes). Pressure is therefore car
 *window* of ``W`` cells around the contact; the displacement on the window is the restriction of
 the periodic convolution (1), i.e. a Toeplitz operator whose coefficients are the real-space
 influence coefficients ``c = IDFT(K)`` (one size-``N`` FFT). It is applied matrix-free by an
-FFT of size ``>= 2W - 1`` (circulant embedding, :func:`embedding_size`), so the per-iteration cost does not grow with the
-period. No dense matrix is formed.
+FFT of size ``>= 2W - 1`` (circulant embedding, :func:`embedding_size`), so the per-iteration
+cost does not grow with the period. No dense matrix is formed.
 
 Contact problem and solver
 --------------------------
@@ -597,13 +597,13 @@ def solve_contact(
             penetration mode.
         penetration: prescribed rigid-body penetration ``d`` [m] (penetration mode; keyword
             only). ``d <= 0`` gives ``p = 0``.
+        initial_contact: boolean initial guess of the contact set (default: load mode, the
+            cells where ``h`` lies in the lowest 10 % of its range; penetration mode, the
+            geometric overlap ``h < d``).
         warm_start: optional :class:`WarmStart` (a solved neighbour's contact set, pressure and
             penetration; :meth:`WarmStart.stretched`): where valid, it replaces
             ``initial_contact`` and the uniform initial pressure. It changes the number of
             iterations, not the solution (to the tolerance).
-        initial_contact: boolean initial guess of the contact set (default: load mode, the
-            cells where ``h`` lies in the lowest 10 % of its range; penetration mode, the
-            geometric overlap ``h < d``).
         tol: tolerance on the scaled residual (the linear solves use ``1e-3 tol``).
         max_steps: static maximum number of active-set iterations per phase (the loose search,
             then the strict confirmation; see the module docstring).
@@ -786,8 +786,9 @@ def _solve_contact(
     #     d = (r2 - v.P r1) / (c - v.P u),  p = P (r1 - u d)
     # is applied. P acts on the cells "in contact" (mask; weights s_i of C) as the inverse of the
     # coefficients folded onto a period of about the window (preconditioner_size: an E-periodic
-    # operator, divided by its Fourier multiplier) and as a diagonal elsewhere. The preconditioner uses stop_gradient data only: it changes the GMRES
-    # iterations, not the converged solution, so the implicit derivatives are unaffected.
+    # operator, divided by its Fourier multiplier) and as a diagonal elsewhere. The
+    # preconditioner uses stop_gradient data only: it changes the GMRES iterations, not the
+    # converged solution, so the implicit derivatives are unaffected.
     emb = tuple(preconditioner_size(w) for w in shape)
     # The folded multiplier can vanish: K_0 = 0 (zero-mean periodic displacement) makes the
     # window sum of the influence coefficients, i.e. its q = 0 mode, ~0 when they

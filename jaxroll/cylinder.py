@@ -148,7 +148,8 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
     h = x * x / (2.0 * R)
     guess = jnp.abs(x) < a_est
     sol = _contact.solve_contact(
-        kernel.compliance, h, P, dx, initial_contact=guess, warm_start=init, tol=tol, max_steps=max_steps,
+        kernel.compliance, h, P, dx, initial_contact=guess, warm_start=init, tol=tol,
+        max_steps=max_steps,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, a_est, R),
     )
     p = sol.pressure

@@ -286,7 +286,8 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
     h = (X * X + Y * Y) / (2.0 * R)
     guess = (X * X + Y * Y) < r_est * r_est
     sol = _contact.solve_contact(
-        kernel.compliance, h, P, dx * dx, initial_contact=guess, warm_start=init, tol=tol, max_steps=max_steps,
+        kernel.compliance, h, P, dx * dx, initial_contact=guess, warm_start=init, tol=tol,
+        max_steps=max_steps,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, r_est, R),
     )
     p = sol.pressure

@@ -476,3 +476,23 @@ def test_edge_smoothing_bias_falls_with_the_cell_size():
         dev.append(float(np.mean(np.abs(np.asarray(run(mat, 0.25)) / np.asarray(run(mat, None)) - 1))))
     print('mean |smoothed/exact - 1| at 0.5 / 0.25 mm:', dev)
     assert dev[1] < dev[0] / 1.8, dev  # halving the cell: 2^{1.5} = 2.8 expected, >= 1.8 asserted
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
+@pytest.mark.parametrize("order", ["ascending", "descending"])
+def test_grid_table_with_warm_starts_equals_single_points(order):
+    """Full.evaluate_grid starts every solve from its neighbour (the previous load stretched, the
+    previous speed's first load): each entry must equal the point solved alone from the solver's
+    own start, to the solver tolerance (measured 7e-12 on the paper's reference case), with the
+    same validity flag, for loads given in either order."""
+    mat, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(0.005)
+    method = jr.Full(grid=jr.FixedGrid(5e-4, 29))
+    loads = np.array([20.0, 60.0, 100.0, 150.0])
+    loads = loads if order == "ascending" else loads[::-1]
+    speeds = np.array([1e-4, 1e-2, 1.0])
+    table = jr.rolling_resistance_grid(mat, layer, radius=0.02, loads=loads, speeds=speeds, method=method)
+    for i, V in enumerate(speeds):
+        for j, P in enumerate(loads):
+            one = jr.rolling_resistance(mat, layer, radius=0.02, load=P, speed=V, method=method, throw=False)
+            assert abs(float(table.value[i, j]) / float(one.value) - 1) < 1e-8, (V, P)
+            assert int(table.result[i, j]) == int(one.result), (V, P)
