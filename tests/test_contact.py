@@ -468,4 +468,7 @@ def test_warm_start_stretch_reproduces_hertz_at_the_new_load():
     np.testing.assert_array_equal(np.asarray(same.contact), np.asarray(sol40.contact))
     bad = eqx.tree_at(lambda s: s.pressure, sol40, sol40.pressure.at[20, 20].set(jnp.nan))
     assert not bool(ct.WarmStart.stretched(bad, 1.2, 2.0).valid)
+    for s, r in ((jnp.nan, 2.0), (0.0, 2.0), (1.2, jnp.inf)):  # no usable stretch or load ratio: no start
+        ws = ct.WarmStart.stretched(sol40, s, r)
+        assert not bool(ws.valid) and np.all(np.isfinite(np.asarray(ws.pressure))) and np.isfinite(float(ws.penetration))
     assert not bool(ct.WarmStart.of(bad).valid)
