@@ -42,7 +42,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="5 x 3 points (time scaled to 345), 11 slices, coarse 3D")
     ap.add_argument("--H", type=float, default=5e-3, help="layer thickness [m]")
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--linear-solver", default="interval", choices=list(jr.slices.LINEAR_SOLVERS))
+    solvers = {c.__name__.lower(): c for c in jr.slices.LINEAR_SOLVERS}
+    ap.add_argument("--linear-solver", default="interval", choices=list(solvers))
     ap.add_argument("--no-3d", action="store_true", help="skip the full 3D model")
     args = ap.parse_args()
     speeds = jnp.asarray(np.geomspace(1e-4, 1.0, 5 if args.quick else 23))
@@ -60,7 +61,7 @@ def main():
     cmd = "bench_slices.py" + (" --quick" if args.quick else "")
     results = {}
     for alg in jr.slices.ALGORITHMS:
-        method = jr.Slices(algorithm=alg, n_slices=n_slices, grid=grid, linear_solver=args.linear_solver)
+        method = jr.Slices(algorithm=alg, n_slices=n_slices, grid=grid, linear_solver=solvers[args.linear_solver]())
 
         def single(H, P, V, method=method):
             return jr.rolling_resistance(mat, jr.Layer(H), radius=R, load=P, speed=V, method=method,

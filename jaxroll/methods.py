@@ -287,7 +287,8 @@ class Slices(_GridMethod):
         grid: the 1D grid shared by the slices (sized for the middle slice).
         tol, max_steps: contact tolerance (GMRES only) and active-set iteration limit.
         root_tol, root_max_steps: tolerance on ``log d_o`` and iteration limit of the root finds.
-        linear_solver: ``"interval"`` (Levinson tables, fastest), ``"dense"`` or ``"gmres"``.
+        linear_solver: :class:`jaxroll.slices.Interval` (Levinson tables, fastest),
+            :class:`jaxroll.contact.Dense` or :class:`jaxroll.contact.GMRES`.
     """
 
     geometries = ("sphere",)
@@ -298,7 +299,7 @@ class Slices(_GridMethod):
     max_steps: int = eqx.field(static=True, default=60)
     root_tol: float = eqx.field(static=True, default=1e-10)
     root_max_steps: int = eqx.field(static=True, default=40)
-    linear_solver: str = eqx.field(static=True, default="interval")
+    linear_solver: eqx.Module = slices.Interval()
 
     def __check_init__(self):
         slices.check_options(self.algorithm, self.n_slices, self.linear_solver)

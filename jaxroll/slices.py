@@ -34,7 +34,7 @@ carry narrower contacts, are therefore resolved more coarsely (their share of ``
 the slice-count and resolution convergence is tested). The slices are solved together with
 ``jax.vmap``.
 
-Contact solves (default ``linear_solver="interval"``). The window operator is Toeplitz,
+Contact solves (default ``linear_solver=Interval()``). The window operator is Toeplitz,
 ``C[i, j] = c[(i - j) mod N]``, and the slice contact set is one interval of cells, so the
 contact block is the same leading block ``T_n`` wherever the interval lies, and the parabolic
 profile on it is a combination of ``1, j, j^2``: one Levinson recursion per speed tabulates
@@ -43,8 +43,8 @@ profile on it is a combination of ``1, j, j^2``: one Levinson recursion per spee
 every load at that speed is a primal-dual active-set iteration (the library's one loop,
 :func:`jaxroll.contact.active_set_loop`) on the interval whose steps cost one table row and the
 gaps next to the interval, no factorisation (:func:`solve_interval`; the full complementarity is
-checked at the end). The ``"dense"`` (LU) and ``"gmres"`` (FFT operator) linear solvers of
-:func:`jaxroll.contact.solve_contact` solve the same discrete problem in general form (agreement
+checked at the end). The :class:`jaxroll.contact.Dense` (LU) and :class:`jaxroll.contact.GMRES`
+(FFT operator) solvers of :func:`jaxroll.contact.solve_contact` solve the same discrete problem in general form (agreement
 to rounding is tested). :func:`rolling_resistance_grid` evaluates a speeds x loads grid (the
 paper's reference case) with the compliance and tables built once per speed.
 
@@ -64,6 +64,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import contact as _contact
+from .contact.linear import check_linear_solver
 from ._numerics import newton_root
 from .contact_size import estimate_contact_size
 from .cylinder import kernel_builder as line_kernel_builder
@@ -74,6 +75,7 @@ from .reference import hertz_sphere
 from .result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
 
 __all__ = [
+    "Interval",
     "ALGORITHMS",
     "IntervalOperator",
     "LINEAR_SOLVERS",
@@ -90,9 +92,19 @@ __all__ = [
 
 #: The three algorithms of [ZG] sec. 3.
 ALGORITHMS = ("PD", "PP", "SP")
-#: Linear solvers of the slice contact solves: Levinson tables on the contact interval (fastest),
-#: LU or GMRES in :func:`jaxroll.contact.solve_contact`.
-LINEAR_SOLVERS = ("interval", "dense", "gmres")
+
+
+class Interval(eqx.Module):
+    """The slices' default contact solver: the active set on one contact interval with the
+    Levinson tables of :class:`IntervalOperator` (:func:`solve_interval`), no factorisation. The
+    alternatives are the general solvers :class:`jaxroll.contact.Dense` and
+    :class:`jaxroll.contact.GMRES` in :func:`jaxroll.contact.solve_contact` (the same discrete
+    problem; agreement to the solver tolerance)."""
+
+
+#: Contact solvers of the slices: Levinson tables on the contact interval (fastest), LU or GMRES
+#: in :func:`jaxroll.contact.solve_contact`.
+LINEAR_SOLVERS = (Interval, _contact.Dense, _contact.GMRES)
 #: Alias images per side of the slices' 1D periodic kernel (plus the analytic tail).
 IMAGES = 4
 
@@ -375,14 +387,14 @@ class _Prepared(eqx.Module):
     period: jax.Array | None
 
 
-def prepare(material, layer, V, grid: FixedGrid, linear_solver="interval") -> _Prepared:
+def prepare(material, layer, V, grid: FixedGrid, linear_solver=Interval()) -> _Prepared:
     """Everything the slices of one speed ``V`` [m/s] share (built once per speed)."""
     if grid.window % 2:
         raise ValueError(f"the slices' window must hold an even number of cells; got {grid.window}")
     kernel = line_kernel_builder(material, layer, grid, images=IMAGES)(V)
     W, dx = grid.window, grid.spacing
     x = (jnp.arange(W, dtype=float) - 0.5 * (W - 1)) * dx
-    op = interval_operator(kernel.compliance, x, dx) if linear_solver == "interval" else None
+    op = interval_operator(kernel.compliance, x, dx) if isinstance(linear_solver, Interval) else None
     return _Prepared(kernel=kernel, op=op, x=x, dx=dx, period=None if grid.period is None else grid.period[0])
 
 
@@ -399,7 +411,7 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
 
     def pen_slice(Rc, d, check=True):
         """Pressure [Pa] and result code of a slice of radius Rc pressed to penetration d."""
-        if linear_solver == "interval":
+        if isinstance(linear_solver, Interval):
             p, _, st, _, _ = solve_interval(prep.op, Rc, d, mode="penetration", max_steps=max_steps,
                                             check=check)
             return p, st
@@ -472,7 +484,7 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
             # initial contact set: the stationary 2D half-width of the slice (as the cylinder)
             a_k = estimate_contact_size(material, layer, Rc_k, P_k, "cylinder")
             init = jnp.abs(x) < jnp.maximum(a_k, dx)
-            if linear_solver == "interval":
+            if isinstance(linear_solver, Interval):
                 first = jnp.argmax(init)
                 n0 = jnp.sum(init.astype(int))
                 p_k, d_k, st_k, _, _ = solve_interval(prep.op, Rc_k, P_k, mode="load", initial=(first, n0),
@@ -512,8 +524,7 @@ def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slice
 
 def check_options(algorithm, n_slices, linear_solver):
     """Validate the static options of a slice algorithm; returns ``n_slices`` as an int."""
-    if linear_solver not in LINEAR_SOLVERS:
-        raise ValueError(f"linear_solver must be one of {LINEAR_SOLVERS}; got {linear_solver!r}")
+    check_linear_solver(linear_solver, LINEAR_SOLVERS)
     if algorithm not in ALGORITHMS:
         raise ValueError(f"algorithm must be one of {ALGORITHMS}; got {algorithm!r}")
     if isinstance(n_slices, bool) or not isinstance(n_slices, (int, np.integer)) or n_slices < 1 or n_slices % 2 == 0:
@@ -522,14 +533,14 @@ def check_options(algorithm, n_slices, linear_solver):
 
 
 def solve(material, layer: Layer, R, P, V, grid: FixedGrid, *, algorithm="SP", n_slices=21, tol=1e-10,
-          max_steps=60, root_tol=1e-10, root_max_steps=40, linear_solver="interval") -> SliceSolution:
+          max_steps=60, root_tol=1e-10, root_max_steps=40, linear_solver=Interval()) -> SliceSolution:
     """Solve a slice algorithm of [ZG] sec. 3 (PD eq. 9, PP eq. 10, SP eq. 11) for a rigid sphere
     (radius ``R`` [m], load ``P`` [N], speed ``V`` [m/s]) on the 1D ``grid`` shared by its
     ``n_slices`` (odd; paper 21) plane-strain slices. ``tol``: contact tolerance (GMRES only);
     ``max_steps``: active-set iteration limit; ``root_tol``, ``root_max_steps``: tolerance on
-    ``log d_o`` and iteration limit of the root finds; ``linear_solver``: ``"interval"``
-    (default; :func:`solve_interval`), ``"dense"`` or ``"gmres"`` (all solve the same discrete
-    problem). Never raises: see ``result``."""
+    ``log d_o`` and iteration limit of the root finds; ``linear_solver``: :class:`Interval`
+    (default; :func:`solve_interval`), :class:`jaxroll.contact.Dense` or
+    :class:`jaxroll.contact.GMRES` (all solve the same discrete problem). Never raises: see ``result``."""
     n_slices = check_options(algorithm, n_slices, linear_solver)
     return _solve_case(prepare(material, layer, V, grid, linear_solver), material, layer, R, P, V,
                        algorithm=algorithm, n_slices=n_slices, linear_solver=linear_solver, tol=tol,
@@ -562,7 +573,7 @@ def rolling_resistance(material, layer: Layer, R, P, V, grid: FixedGrid, **optio
 
 
 def rolling_resistance_grid(material, layer: Layer, R, loads, speeds, grid: FixedGrid, *, algorithm="SP",
-                            n_slices=21, linear_solver="interval", **options) -> RollingResult:
+                            n_slices=21, linear_solver=Interval(), **options) -> RollingResult:
     """Slice-algorithm ``R_r`` [N] on ``speeds x loads`` (fields ``(n_speeds, n_loads)``), each
     point equal to :func:`rolling_resistance` on ``grid``. The compliance and the Levinson tables
     depend on the speed only: built once per speed (``lax.map``) and shared by all slices of all

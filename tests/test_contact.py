@@ -198,7 +198,7 @@ def test_dense_linear_solver_equals_gmres(penetration):
     op, x, h, dx, P = _problem(V=3e-2)
     ref = ct.solve_contact(op, jnp.asarray(h), P, dx)
     kw = dict(penetration=ref.penetration) if penetration else dict(load=P, cell_area=dx)
-    sols = [ct.solve_contact(op, jnp.asarray(h), linear_solver=s, **kw) for s in ("gmres", "dense")]
+    sols = [ct.solve_contact(op, jnp.asarray(h), linear_solver=s, **kw) for s in (ct.GMRES(), ct.Dense())]
     for sol in sols:
         assert int(sol.result) == RESULTS.successful
         np.testing.assert_array_equal(np.asarray(sol.contact), np.asarray(ref.contact))
@@ -208,7 +208,7 @@ def test_dense_linear_solver_equals_gmres(penetration):
     # the pressure moment in P, relative step 1e-6, no contact-set change inside it)
     if not penetration:
         xj = jnp.asarray(x)
-        f = jax.jit(lambda P: jnp.sum(ct.solve_contact(op, jnp.asarray(h), P, dx, linear_solver="dense").pressure * xj))
+        f = jax.jit(lambda P: jnp.sum(ct.solve_contact(op, jnp.asarray(h), P, dx, linear_solver=ct.Dense()).pressure * xj))
         g = float(jax.grad(f)(P))
         fd = (float(f(P * (1 + 1e-6))) - float(f(P * (1 - 1e-6)))) / (2e-6 * P)
         assert g == pytest.approx(fd, rel=1e-6)

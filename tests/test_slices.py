@@ -139,7 +139,7 @@ def test_penetration_solve_matches_load_controlled_cylinder():
     c = jax.jit(lambda: cy.solve(kernel, grid, R, Pl, a))()
     C, x, dx = kernel.compliance, c.x, c.dx
     assert int(c.contact.result) == 0
-    for solver in ("gmres", "dense"):
+    for solver in (ct.GMRES(), ct.Dense()):
         s = jax.jit(lambda d, solver=solver: ct.solve_contact(C, x**2 / (2 * R), penetration=d,
                                                                linear_solver=solver))(c.contact.penetration)
         assert int(s.result) == 0
@@ -147,7 +147,7 @@ def test_penetration_solve_matches_load_controlled_cylinder():
         np.testing.assert_allclose(float(jnp.sum(s.pressure) * dx), Pl, rtol=1e-8)
         np.testing.assert_allclose(np.asarray(s.pressure), np.asarray(c.contact.pressure), rtol=0,
                                    atol=1e-8 * float(jnp.max(c.contact.pressure)))
-    s = ct.solve_contact(C, x**2 / (2 * R), Pl, dx, linear_solver="dense")
+    s = ct.solve_contact(C, x**2 / (2 * R), Pl, dx, linear_solver=ct.Dense())
     np.testing.assert_allclose(float(s.penetration), float(c.contact.penetration), rtol=1e-9)
     # interval solver (Levinson tables, the default of the slices), both modes: same discrete LCP
     op = sl.interval_operator(C, x, dx)

@@ -1,0 +1,111 @@
+"""Preconditioner of the contact systems: the inverse of a periodic approximation of ``C``.
+
+For the block system ``[[B, u], [v^T, c]]`` of a contact set (``B``: gap rows on the set and
+pressure rows off it, ``u``: the ``d`` column, ``v``: the last row, ``c``: its corner) with an
+approximate inverse ``P`` of ``B``, the exact block elimination (Schur complement)
+
+    ``d = (r2 - v.P r1) / (c - v.P u)``,  ``p = P (r1 - u d)``
+
+is applied. ``P`` acts on the cells in the set (row weights ``w_in`` of ``C``) as the inverse of
+the coefficients folded onto a period of about one window (:func:`~jaxroll.contact.operator.
+preconditioner_size`: an ``E``-periodic operator, divided by its Fourier multiplier) and as a
+diagonal ``w_out`` elsewhere. It is built from ``stop_gradient`` data: it changes the GMRES
+iterations, never the converged solution, so the implicit derivatives do not depend on it.
+
+Measured on the paper's reference case (55-cell window: 56 instead of 112 points per axis), GMRES
+needs 1-3 % more iterations with the folded period than with the exact embedding and each
+application costs a quarter. The Krylov iterations drop 4-9x for the 3D sphere (e.g.
+``P = 150 N``: 942 -> 101 operator applications per solve) and 2.5-4x in 1D; the same
+preconditioner (transposed for the adjoint) serves the implicit-differentiation solves and, with
+the soft-min weights, the Newton steps of the smoothed contact edge.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from .operator import WindowedCompliance, circulant_window_apply, fold_offsets, preconditioner_size
+from .system import ContactSystem, flat
+
+__all__ = ["CirculantPreconditioner"]
+
+#: Floor of the modulus of the preconditioner's Fourier multiplier, relative to its maximum.
+#: The folded multiplier can vanish: ``K_0 = 0`` (zero-mean periodic displacement) makes the
+#: window sum of the influence coefficients, i.e. its ``q = 0`` mode, ~0 when they decay within
+#: the window (thin layers). Flooring (phase kept) keeps the preconditioner bounded; it affects
+#: only modes the contact set barely sees (the sphere at the paper's resolution has min/max
+#: ~3e-3: unchanged).
+PRECONDITIONER_FLOOR = 1e-3
+
+
+class CirculantPreconditioner(eqx.Module):
+    """Approximate inverse of a scaled contact system (see the module docstring).
+
+    Attributes:
+        inverse_multiplier: Fourier multiplier of the folded periodic inverse.
+        scale: ``g_s/p_s`` (the system's operator is ``C p~ (p_s/g_s)``).
+        embedding: static FFT sizes of the folded period.
+        shape: static window shape.
+    """
+
+    inverse_multiplier: jax.Array
+    scale: jax.Array
+    embedding: tuple = eqx.field(static=True)
+    shape: tuple = eqx.field(static=True)
+
+    @classmethod
+    def build(cls, compliance: WindowedCompliance, system: ContactSystem) -> "CirculantPreconditioner":
+        sg = jax.lax.stop_gradient
+        shape = compliance.shape
+        emb = tuple(preconditioner_size(w) for w in shape)
+        mult = jnp.fft.rfftn(fold_offsets(sg(compliance.offsets), emb))
+        mod = jnp.abs(mult)
+        floor = PRECONDITIONER_FLOOR * jnp.max(mod)
+        big = mod >= floor
+        one = jnp.ones_like(mult)
+        phase = jnp.where(mod > 0, jnp.conj(mult) / jnp.where(mod > 0, mod, 1.0).astype(mult.dtype), one)
+        inv = jnp.where(big, one / jnp.where(big, mult, one), phase / floor.astype(mult.dtype))
+        return cls(inv, sg(system.g_s / system.p_s), emb, shape)
+
+    def _circulant_inverse(self, r, transpose):
+        mult = jnp.conj(self.inverse_multiplier) if transpose else self.inverse_multiplier
+        return circulant_window_apply(mult, r, self.embedding) * self.scale
+
+    def block(self, in_set, w_in, w_out, u, v, c, transpose=False):
+        """``M ~ A^-1`` (or ``A^-T``) of the bordered system: rows on ``in_set`` ~ ``w_in`` times the
+        scaled ``C`` on the set, rows off it ~ ``w_out`` times the identity; ``u, v``: window-shaped
+        ``d`` column and last row; ``c``: corner."""
+        mf = in_set.astype(float)
+        w_out = jnp.where(in_set, 1.0, w_out)
+        w_in = jnp.where(in_set, w_in, 1.0)
+        if transpose:
+            u, v = v, u
+
+            def P(r):
+                return mf * self._circulant_inverse(mf * r, True) / w_in + (1.0 - mf) * r / w_out
+        else:
+            def P(r):
+                return mf * self._circulant_inverse(mf * r / w_in, False) + (1.0 - mf) * r / w_out
+
+        Pu = P(u)
+        den = c - jnp.sum(v * Pu)
+        ok = jnp.abs(den) > 1e-300
+        den_safe = jnp.where(ok, den, 1.0)
+
+        def M(r):
+            r1 = r[:-1].reshape(self.shape)
+            r2 = r[-1]
+            Pr1 = P(r1)
+            d = jnp.where(ok, (r2 - jnp.sum(v * Pr1)) / den_safe, r2)
+            return flat(Pr1 - d * Pu, d)
+
+        return M
+
+    def active_set(self, system: ContactSystem, mask, transpose=False):
+        """``M`` for the active-set system of :meth:`ContactSystem.matvec` on ``mask``."""
+        mf = mask.astype(float)
+        ones = jnp.ones(self.shape)
+        v, c = system.border(mf)
+        return self.block(mask, ones, ones, -mf, v, c, transpose)

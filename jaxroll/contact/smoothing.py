@@ -1,0 +1,128 @@
+"""Smoothed contact edge (``smoothing=eps`` of :func:`jaxroll.contact.solve_contact`).
+
+Because the contact set changes by whole cells, any functional of the exact discrete solution
+(e.g. the rolling resistance) is only piecewise smooth: it wiggles around its continuum value
+with a kink at every contact-set change (0.2-0.3 % for a 3D sphere at 9-23 cells per contact
+radius). Least-squares fits along nearly degenerate parameter valleys stall on such wiggles.
+With ``smoothing`` the complementarity ``min(c0 p, g) = 0`` becomes the log-sum-exp soft
+minimum ``exp(-c0 p/eps) + exp(-g/eps) = 1``: a cell enters the contact gradually, the solution
+is C-infinity in the parameters, and it is found by damped Newton (Armijo on the residual) from
+the exact active-set solution, each step a GMRES solve on the whole window with the soft-min
+weights (the active-set system is the special case of 0/1 weights). Derivatives: one extra
+Newton correction whose right-hand side carries the parameter dependence, through
+:func:`jax.lax.custom_linear_solve` (implicit function theorem). The price is a bias: the soft
+edge lets cells with a small gap carry load; the 3D rolling resistance falls by ~1 % on
+average at the smoothing used for fits (see :func:`jaxroll.sphere3d.solve_sphere`,
+``edge_smoothing``), and the bias vanishes with ``eps``.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from .precondition import CirculantPreconditioner
+from .system import ContactSystem
+
+__all__ = ["edge_gap_scale", "smoothed_solve"]
+
+#: Step lengths tried by the damped Newton iteration (Armijo backtracking).
+_ALPHAS = 0.5 ** jnp.arange(10.0)
+
+
+def _residual(system: ContactSystem, x, c0_ratio, eps):
+    """Soft-min residual ``-eps log(exp(-a/eps) + exp(-g/eps))`` (``a = c0 p / g_s``) with the last
+    row, and the soft-min arguments ``(a, g~)``."""
+    pt = x[:-1].reshape(system.shape)
+    gt = system.gap(pt, x[-1])
+    a = c0_ratio * pt
+    F = -eps * jnp.logaddexp(-a / eps, -gt / eps)
+    return jnp.concatenate([F.ravel(), (system.last_row(pt, x[-1]) - system.target)[None]]), a, gt
+
+
+def _jacobian(system: ContactSystem, a, gt, eps, precond: CirculantPreconditioner | None):
+    """``(matvec, preconditioner)`` of the soft-min residual's Jacobian at ``(a, g~)``:
+    ``preconditioner(transpose)`` is ``M`` (or ``M^T``), ``None`` without a preconditioner."""
+    w_a = jax.nn.sigmoid((gt - a) / eps)  # d smin / d a; d smin / d g = 1 - w_a
+    ratio = system.p_s / system.g_s
+
+    def matvec(v):
+        vp = v[:-1].reshape(system.shape)
+        rows = w_a * vp + (1.0 - w_a) * (system.compliance(vp) * ratio - v[-1])
+        return jnp.concatenate([rows.ravel(), system.last_row(vp, v[-1])[None]])
+
+    def preconditioner(transpose):
+        if precond is None:
+            return None
+        in_set = w_a < 0.5  # gap-dominated rows (the contact): ~ (1 - w_a) C
+        v, c = system.border(jnp.ones(system.shape))
+        return precond.block(in_set, 1.0 - w_a, w_a, -(1.0 - w_a), v, c, transpose)
+
+    return matvec, preconditioner
+
+
+def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol, max_steps):
+    """Damped Newton on ``smin_eps(c0 p, g) = 0`` from the exact solution ``x_exact``.
+
+    Args:
+        system: the differentiable system (its stopped copy drives the iterations).
+        x_exact: the exact (active-set) scaled solution, ``stop_gradient``.
+        eps: gap scale [m] (traced allowed).
+        solver, precond: linear solver and preconditioner (or ``None``).
+
+    Returns:
+        ``(x, contact, iterations, converged, residual)``: ``x`` differentiable (one Newton
+        correction carrying the parameter dependence: ``dx = -J^{-1} dF``, the value unchanged to
+        ``tol``); ``contact`` the cells where the gap condition dominates (``c0 p > g``).
+    """
+    sg = jax.lax.stop_gradient
+    fixed = system.stopped()
+    eps_t = sg(eps / system.g_s)
+    c0 = jnp.abs(fixed.compliance.self_compliance)
+
+    def newton(state):
+        # carries the residual and soft-min arguments of the current iterate (one evaluation per
+        # trial step: the accepted trial's values become the next iterate's)
+        x, (F, a, gt), it, _ = state
+        mv, M = _jacobian(fixed, a, gt, eps_t, precond)
+        step = solver.solve(mv, -F, None, M(False), tol * 1e-3)
+        trials = jax.vmap(lambda al: _residual(fixed, x + al * step, 1.0, eps_t))(_ALPHAS)
+        merit = jnp.sum(trials[0] ** 2, axis=1)
+        ok = merit <= (1.0 - 1e-4 * _ALPHAS) * jnp.sum(F * F)  # Armijo on |F|^2
+        k = jnp.where(jnp.any(ok), jnp.argmax(ok), _ALPHAS.size - 1)
+        x = x + _ALPHAS[k] * step
+        res_k = jax.tree_util.tree_map(lambda t: t[k], trials)
+        done = (jnp.max(jnp.abs(res_k[0])) <= tol) | ~jnp.all(jnp.isfinite(x))
+        return x, res_k, it + 1, done
+
+    x_s, (F_s, a_s, gt_s), n_it, n_done = jax.lax.while_loop(
+        lambda s: (~s[3]) & (s[2] < max_steps), newton,
+        (x_exact, _residual(fixed, x_exact, 1.0, eps_t), jnp.asarray(0), jnp.asarray(False)),
+    )
+    x_s, F_s, a_s, gt_s = sg(x_s), sg(F_s), sg(a_s), sg(gt_s)
+    # the derivative of c0 enters through c0_ratio = c0(theta)/c0 (value 1)
+    c0_ratio = jnp.abs(system.compliance.self_compliance) / c0
+    F_theta, _, _ = _residual(system, x_s, c0_ratio, eps / system.g_s)
+    mv, M = _jacobian(fixed, a_s, gt_s, eps_t, precond)
+    x = x_s + jax.lax.custom_linear_solve(
+        mv, -F_theta,
+        solve=lambda f, bb: solver.solve(f, bb, None, M(False), tol * 1e-3),
+        transpose_solve=lambda f, bb: solver.solve(f, bb, None, M(True), tol * 1e-3),
+    )
+    return x, sg(gt_s < a_s), n_it, n_done, jnp.max(jnp.abs(F_s))
+
+
+def edge_gap_scale(kappa, cell_size, contact_radius, radius):
+    """Gap scale ``eps`` [m] for ``smoothing`` of :func:`jaxroll.contact.solve_contact`:
+    ``kappa a^{3/2} c^{1/2} / R``.
+
+    Near the edge of a Hertz contact (sphere or cylinder) of radius/half-width ``c`` and
+    penetration ``~ c^2/R`` the gap grows like ``(c^2/R) (s/c)^{3/2}`` with the distance ``s``
+    outside the edge, so this is (up to an O(1) factor) the gap one cell of size ``a`` outside
+    the edge, and ``kappa`` measures the smoothing in cells. Give a smooth estimate of ``c``
+    (e.g. the Hertz/Jaffar radius), never the discrete contact size, or the smoothed solution
+    stops being smooth in the parameters. ``kappa = None`` returns ``None`` (no smoothing).
+    """
+    if kappa is None:
+        return None
+    return kappa * cell_size * jnp.sqrt(cell_size * contact_radius) / radius
