@@ -34,6 +34,7 @@ P = 0.2..2 kN: 3.33..4.88 mm).
 from __future__ import annotations
 
 import math
+from typing import Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -42,6 +43,7 @@ import scipy.special
 
 from ._numerics import as_float, where_safe
 from .contact_size import GEOMETRIES, check_geometry, contact_radius, jaffar_coefficients  # noqa: F401 (re-exported)
+from .result import REGIMES
 from .special import j1, j2, j3
 
 __all__ = [
@@ -54,8 +56,8 @@ __all__ = [
     "pressure_profile",
 ]
 
-#: Pressure-model names and their ``RollingResult.regime`` codes (see ``jaxroll.result``).
-PRESSURE_MODELS = {"thick": 0, "thin": 1, "thin-compressible": 2}
+#: Pressure-model names and their ``RollingResult.regime`` codes (:data:`jaxroll.result.REGIMES`).
+PRESSURE_MODELS = {name: code for code, name in REGIMES.items() if name in ("thick", "thin", "thin-compressible")}
 
 #: Jaffar's thick-layer (Hertz-shape) model is valid for ``gamma = r_c/H <= 0.9`` ([ZG] 4.3).
 THICK_MAX_GAMMA = 0.9
@@ -76,11 +78,75 @@ def _check_model(model: str, geometry: str) -> None:
 
 
 # --------------------------------------------------------------------------------------
-# transforms
+# the models, one table
 
-def _small(x, thr):
-    s = jnp.abs(x) < thr
-    return s, where_safe(s, 1.0, x), where_safe(s, x, 0.0)
+
+def _hertz_sphere_closed(x, xp, jn):
+    return 3.0 * (xp.sin(x) - x * xp.cos(x)) / x**3
+
+
+def _thin_cylinder_closed(x, xp, jn):
+    return 15.0 * ((3.0 - x * x) * xp.sin(x) - 3.0 * x * xp.cos(x)) / x**5
+
+
+class _Shape(NamedTuple):
+    """One stationary pressure shape: its transform, profile and large-``x`` envelope.
+
+    * ``closed(x, xp, jn)``: ``S(x)`` with the array module ``xp`` (``jnp`` or ``np``) and the
+      Bessel function ``jn(n, x)``;
+    * ``series``: Taylor coefficients of ``S`` in ``x^2`` (``S(0) = 1``), used below ``threshold``;
+    * ``envelope(x, jn2)``: the mean of ``S(x)^2`` over its oscillation (``jn2(n)`` the mean of
+      ``J_n^2``), and its leading law ``envelope_law = (C, p)``: ``C x^(-p)``;
+    * ``profile = (c, e)``: ``p(r) = c P / (pi a^d) (1 - r^2/a^2)^e`` (``d = 2`` sphere, 1
+      cylinder; the cylinder's ``pi`` is folded into ``c``).
+    """
+
+    closed: Callable
+    series: tuple
+    threshold: float
+    envelope: Callable
+    envelope_law: tuple
+    profile: tuple
+
+
+_HERTZ_SPHERE_SERIES = (1.0, -1 / 10.0, 1 / 280.0, -1 / 15120.0, 1 / 1330560.0)
+_HERTZ_SPHERE_ENVELOPE = (lambda x, jn2: 9.0 * (1.0 + x * x) / (2.0 * x**6))
+
+#: The stationary pressure models of [ZG] sec. 4, keyed by ``(geometry, model)`` (see the module
+#: docstring): the one place their transforms, profiles and envelopes are written.
+_SHAPES = {
+    ("sphere", "thick"): _Shape(_hertz_sphere_closed, _HERTZ_SPHERE_SERIES, 0.05, _HERTZ_SPHERE_ENVELOPE,
+                                (4.5, 4.0), (1.5, 0.5)),
+    ("sphere", "thin"): _Shape(lambda x, xp, jn: 48.0 * jn(3, x) / x**3,
+                               (1.0, -1 / 16.0, 1 / 640.0, -1 / 46080.0, 1 / 5160960.0), 0.05,
+                               lambda x, jn2: 2304.0 * jn2(3) / x**6, (2304.0 / math.pi, 7.0), (3.0, 2.0)),
+    ("sphere", "thin-compressible"): _Shape(lambda x, xp, jn: 8.0 * jn(2, x) / x**2,
+                                            (1.0, -1 / 12.0, 1 / 384.0, -1 / 23040.0, 1 / 2211840.0), 0.05,
+                                            lambda x, jn2: 64.0 * jn2(2) / x**4, (64.0 / math.pi, 5.0), (2.0, 1.0)),
+    ("cylinder", "thick"): _Shape(lambda x, xp, jn: 2.0 * jn(1, x) / x,
+                                  (1.0, -1 / 8.0, 1 / 192.0, -1 / 9216.0, 1 / 737280.0), 0.05,
+                                  lambda x, jn2: 4.0 * jn2(1) / x**2, (4.0 / math.pi, 3.0), (2.0, 0.5)),
+    ("cylinder", "thin"): _Shape(_thin_cylinder_closed,
+                                 (1.0, -1 / 14.0, 1 / 504.0, -1 / 33264.0, 1 / 3459456.0, -1 / 518918400.0), 0.5,
+                                 lambda x, jn2: 225.0 * ((3.0 - x * x) ** 2 + 9.0 * x * x) / (2.0 * x**10),
+                                 (112.5, 6.0), (15.0 * math.pi / 16.0, 2.0)),
+    ("cylinder", "thin-compressible"): _Shape(_hertz_sphere_closed, _HERTZ_SPHERE_SERIES, 0.05,
+                                              _HERTZ_SPHERE_ENVELOPE, (4.5, 4.0), (0.75 * math.pi, 1.0)),
+}
+
+#: Large-x envelope of S(x)^2 (mean over an oscillation): ``C x^(-p)``.
+_ENVELOPE = {key: shape.envelope_law for key, shape in _SHAPES.items()}
+
+_JN = {1: j1, 2: j2, 3: j3}
+
+
+def _series(coefficients, x2):
+    return sum(c * x2**k for k, c in enumerate(coefficients))
+
+
+def _shape(model, geometry) -> _Shape:
+    _check_model(model, geometry)
+    return _SHAPES[(geometry, model)]
 
 
 def pressure_transform(x, *, model="thick", geometry="sphere") -> jax.Array:
@@ -90,71 +156,20 @@ def pressure_transform(x, *, model="thick", geometry="sphere") -> jax.Array:
     Sphere: [ZG] eqs. 36, 41, 46; cylinder: see the module docstring. Small ``x`` use Taylor
     series (double-where guarded), so values and derivatives are finite at ``x = 0``.
     """
-    _check_model(model, geometry)
+    shape = _shape(model, geometry)
     x = as_float(x)
-    if geometry == "sphere" and model == "thick" or geometry == "cylinder" and model == "thin-compressible":
-        s, xl, xs = _small(x, 0.05)
-        x2 = xs * xs
-        series = 1.0 - x2 / 10.0 + x2 * x2 / 280.0 - x2**3 / 15120.0 + x2**4 / 1330560.0
-        return jnp.where(s, series, 3.0 * (jnp.sin(xl) - xl * jnp.cos(xl)) / xl**3)
-    if geometry == "sphere" and model == "thin":
-        s, xl, xs = _small(x, 0.05)
-        x2 = xs * xs
-        series = 1.0 - x2 / 16.0 + x2 * x2 / 640.0 - x2**3 / 46080.0 + x2**4 / 5160960.0
-        return jnp.where(s, series, 48.0 * j3(xl) / xl**3)
-    if geometry == "sphere":  # thin-compressible
-        s, xl, xs = _small(x, 0.05)
-        x2 = xs * xs
-        series = 1.0 - x2 / 12.0 + x2 * x2 / 384.0 - x2**3 / 23040.0 + x2**4 / 2211840.0
-        return jnp.where(s, series, 8.0 * j2(xl) / xl**2)
-    if model == "thick":  # cylinder Hertz
-        s, xl, xs = _small(x, 0.05)
-        x2 = xs * xs
-        series = 1.0 - x2 / 8.0 + x2 * x2 / 192.0 - x2**3 / 9216.0 + x2**4 / 737280.0
-        return jnp.where(s, series, 2.0 * j1(xl) / xl)
-    # cylinder thin incompressible
-    s, xl, xs = _small(x, 0.5)
-    x2 = xs * xs
-    series = 1.0 - x2 / 14.0 + x2 * x2 / 504.0 - x2**3 / 33264.0 + x2**4 / 3459456.0 - x2**5 / 518918400.0
-    return jnp.where(s, series, 15.0 * ((3.0 - xl * xl) * jnp.sin(xl) - 3.0 * xl * jnp.cos(xl)) / xl**5)
+    small = jnp.abs(x) < shape.threshold
+    xl, xs = where_safe(small, 1.0, x), where_safe(small, x, 0.0)
+    return jnp.where(small, _series(shape.series, xs * xs), shape.closed(xl, jnp, lambda n, v: _JN[n](v)))
 
 
 def _transform_np(x, model, geometry):
     """NumPy (scipy Bessel) twin of :func:`pressure_transform`, for quadrature weights."""
+    shape = _shape(model, geometry)
     x = np.asarray(x, dtype=np.float64)
     with np.errstate(all="ignore"):
-        if geometry == "sphere" and model == "thick" or geometry == "cylinder" and model == "thin-compressible":
-            v = 3.0 * (np.sin(x) - x * np.cos(x)) / x**3
-            sm = 1.0 - x**2 / 10.0 + x**4 / 280.0 - x**6 / 15120.0 + x**8 / 1330560.0
-            thr = 0.05
-        elif geometry == "sphere" and model == "thin":
-            v = 48.0 * scipy.special.jv(3, x) / x**3
-            sm = 1.0 - x**2 / 16.0 + x**4 / 640.0 - x**6 / 46080.0 + x**8 / 5160960.0
-            thr = 0.05
-        elif geometry == "sphere":
-            v = 8.0 * scipy.special.jv(2, x) / x**2
-            sm = 1.0 - x**2 / 12.0 + x**4 / 384.0 - x**6 / 23040.0 + x**8 / 2211840.0
-            thr = 0.05
-        elif model == "thick":
-            v = 2.0 * scipy.special.jv(1, x) / x
-            sm = 1.0 - x**2 / 8.0 + x**4 / 192.0 - x**6 / 9216.0 + x**8 / 737280.0
-            thr = 0.05
-        else:
-            v = 15.0 * ((3.0 - x * x) * np.sin(x) - 3.0 * x * np.cos(x)) / x**5
-            sm = 1.0 - x**2 / 14.0 + x**4 / 504.0 - x**6 / 33264.0 + x**8 / 3459456.0 - x**10 / 518918400.0
-            thr = 0.5
-    return np.where(np.abs(x) < thr, sm, v)
-
-
-#: Large-x envelope of S(x)^2 (mean over an oscillation): ``C x^(-p)``.
-_ENVELOPE = {
-    ("sphere", "thick"): (4.5, 4.0),
-    ("sphere", "thin"): (2304.0 / math.pi, 7.0),
-    ("sphere", "thin-compressible"): (64.0 / math.pi, 5.0),
-    ("cylinder", "thick"): (4.0 / math.pi, 3.0),
-    ("cylinder", "thin"): (112.5, 6.0),
-    ("cylinder", "thin-compressible"): (4.5, 4.0),
-}
+        v = shape.closed(x, np, scipy.special.jv)
+    return np.where(np.abs(x) < shape.threshold, _series(shape.series, x * x), v)
 
 
 def _envelope_np(x, model, geometry):
@@ -166,32 +181,15 @@ def _envelope_np(x, model, geometry):
     def jn2(n):
         return (1.0 + (4.0 * n * n - 1.0) / (8.0 * x * x)) / (math.pi * x)
 
-    if geometry == "sphere" and model == "thick" or geometry == "cylinder" and model == "thin-compressible":
-        return 9.0 * (1.0 + x * x) / (2.0 * x**6)
-    if geometry == "sphere" and model == "thin":
-        return 2304.0 * jn2(3) / x**6
-    if geometry == "sphere":
-        return 64.0 * jn2(2) / x**4
-    if model == "thick":
-        return 4.0 * jn2(1) / x**2
-    return 225.0 * ((3.0 - x * x) ** 2 + 9.0 * x * x) / (2.0 * x**10)
+    return _shape(model, geometry).envelope(x, jn2)
 
 
 def pressure_profile(r, contact_radius, load, *, model="thick", geometry="sphere") -> jax.Array:
     """Stationary contact pressure [Pa] at distance ``r`` [m] from the centre (sphere) or at
     abscissa ``x = r`` (cylinder; ``load`` per unit length). [ZG] eqs. 31, 39, 44; zero outside
     the contact."""
-    _check_model(model, geometry)
+    c, e = _shape(model, geometry).profile
     r, a, P = as_float(r), as_float(contact_radius), as_float(load)
     t = jnp.clip(1.0 - (r / a) ** 2, 0.0, None)
-    if geometry == "sphere":
-        if model == "thick":
-            return 3.0 * P / (2.0 * math.pi * a * a) * jnp.sqrt(t)
-        if model == "thin":
-            return 3.0 * P / (math.pi * a * a) * t * t
-        return 2.0 * P / (math.pi * a * a) * t
-    if model == "thick":
-        return 2.0 * P / (math.pi * a) * jnp.sqrt(t)
-    if model == "thin":
-        return 15.0 * P / (16.0 * a) * t * t
-    return 3.0 * P / (4.0 * a) * t
+    shape = jnp.sqrt(t) if e == 0.5 else t ** int(e)
+    return c * P / (math.pi * a ** (2 if geometry == "sphere" else 1)) * shape
