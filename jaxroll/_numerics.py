@@ -18,7 +18,7 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["as_float", "check_x64", "newton_root", "NewtonInfo", "roller_inputs", "sinh_minus_x_scaled", "to_complex",
+__all__ = ["as_float", "check_x64", "newton_root", "NewtonInfo", "roller_inputs", "to_complex",
            "where_safe"]
 
 
@@ -51,27 +51,6 @@ def where_safe(cond, x, safe):
     then finite instead of NaN.
     """
     return jnp.where(cond, x, safe)
-
-
-def sinh_minus_x_scaled(x):
-    """``exp(-x) * (sinh(x) - x)`` for real or complex ``x`` with ``Re x >= 0``, without
-    cancellation near 0 or overflow for large ``x``.
-
-    Series ``sum_{k>=1} x^(2k+1)/(2k+1)!`` for ``|x| < 1`` (12 terms, error < 1e-17 relative),
-    the closed form ``(1 - e^{-2x})/2 - x e^{-x}`` otherwise.
-    """
-    small = jnp.abs(x) < 1.0
-    xs = where_safe(small, x, 0.5)
-    x2 = xs * xs
-    term = xs * x2 / 6.0
-    total = term
-    for k in range(2, 13):
-        term = term * x2 / ((2 * k) * (2 * k + 1))
-        total = total + term
-    series = jnp.exp(-xs) * total
-    xl = where_safe(small, 1.0, x)
-    large = -0.5 * jnp.expm1(-2.0 * xl) - xl * jnp.exp(-xl)
-    return jnp.where(small, series, large)
 
 
 def to_complex(x) -> jax.Array:
