@@ -60,7 +60,7 @@ def rr(method):
 
 
 def numpy_T(q, V, G=G0, tau=TAU, f=F, H_=H):
-    """Quasi-static incompressible layer T = F(qH)/(2 G_m |q|) (docs/design.md section 2), NumPy."""
+    """Quasi-static incompressible layer T = F(qH)/(2 G_m |q|) (docs/conventions.md sec. 4), NumPy."""
     qa = np.abs(q)
     w = q * V * tau
     Gm = np.conj(G * (1 + 1j * w) / (1 + 1j * w / (1 + f)))

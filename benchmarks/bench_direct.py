@@ -13,7 +13,7 @@ repeats, ``block_until_ready``):
 
 Accuracy: against the converged value (aperiodic, ``rtol`` 1e-8; the periodic series converge to
 the periodic value, which differs physically at high speed, so their error mixes truncation
-and the periodic/aperiodic difference; see docs/design.md section 2).
+and the periodic/aperiodic difference; see docs/conventions.md sec. 6).
 
 Run: ``python benchmarks/bench_direct.py [--quick] [--repeats 5]`` (``--quick``: 3 repeats, no
 N = 500 series). Paper: 23 s per reference case.

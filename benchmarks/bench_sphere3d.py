@@ -2,7 +2,7 @@
 
 Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3] [--period 0.2 | none] [--grad]
 
-Reference case ([ZG] Table 1 / docs/design.md section 5): 23 log-spaced speeds 1e-4..1 m/s x 15
+Reference case ([ZG] Table 1 / docs/design.md sec. 3): 23 log-spaced speeds 1e-4..1 m/s x 15
 loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at the paper's
 resolution: ``jr.Full(grid=jr.FixedGrid(2.5e-4, window, period=0.2, n_terms=500))`` with the
 window of 41 cells of the paper, enlarged to fit the largest contact. Paper: 54 min per reference

@@ -21,7 +21,7 @@ What it measures
    ``--devices`` is capped at the real device count and ``XLA_FLAGS`` is left alone.
 2. Strategies (one device): ``sweep`` with several chunk sizes vs one ``jit(vmap)`` over all
    points vs ``lax.map(batch_size=...)`` vs a host loop over a jitted chunk; time, and the
-   compiled working memory of the ``jit`` strategies (cf. docs/design.md sec. 6: chunks of 1 took 3.6 s / 7 MiB against a
+   compiled working memory of the ``jit`` strategies (cf. docs/design.md sec. 4: chunks of 1 took 3.6 s / 7 MiB against a
    full vmap's 4.7-5.7 s / 2-5 GB for 345 cases x 5000 modes).
 
 Workloads (see ``WORKLOADS``; the HOOK section is where the real models plug in):
@@ -277,7 +277,7 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--strategies-only", action="store_true")
     ap.add_argument("--no-strategies", action="store_true")
-    ap.add_argument("--strategy-points", type=int, default=345, help="docs/design.md sec. 6 used 345 x 5000")
+    ap.add_argument("--strategy-points", type=int, default=345, help="docs/design.md sec. 4 used 345 x 5000")
     ap.add_argument("--strategy-modes", type=int, default=5000)
     ap.add_argument("--strategy-chunks", default="1,8,64,256")
     ap.add_argument("--quick", action="store_true",

@@ -37,7 +37,7 @@ R, H, RHO = 0.02, 0.03, 0.0
 SPEEDS = np.logspace(-4, 0, 12)
 LOADS = np.linspace(10.0, 150.0, 5)
 SEED, NOISE = 2026, 0.02
-#: the paper's resolution ([ZG] sec. 2 / docs/design.md section 5)
+#: the paper's resolution ([ZG] sec. 2 / docs/design.md sec. 3)
 PERIOD, SPACING, N_TERMS = 0.2, 2.5e-4, 500
 #: smoothed contact edge of the full model (``jr.Full(edge_smoothing=...)``): makes
 #: R_r a smooth function of (G0, tau, f) so that least-squares fits with the same model converge

@@ -32,7 +32,7 @@ like everything with ``0.9 < gamma < 10``), so the value is continuous and C1 in
 
 Periodic and aperiodic results are different physics at high speed: the periodic series is a
 train of rollers a period apart, and when ``V tau > ~L`` the layer does not recover between
-passes (-2 to -6 % at 1-10 m/s for L = 0.2 m, docs/design.md section 2). The aperiodic value is the
+passes (-2 to -6 % at 1-10 m/s for L = 0.2 m, docs/conventions.md sec. 6). The aperiodic value is the
 single roller on an infinite layer and is the default.
 
 Quadrature of the aperiodic integrals (all static, vectorised; ~6600 ``G*`` values and ~130
@@ -274,8 +274,8 @@ def select_pressure(material, layer, radius, load, *, pressure="auto", geometry=
     no model applies and the result is flagged ``outside_pressure_model``.
 
     The blend: Jaffar's law has no solution beyond ``gamma_max`` (1.2 for spheres at
-    ``nu = 0.5``), so a plain switch there made ``R_r`` jump by 20-80 % (docs/design.md
-    section 2). Instead the thick model's weight ``w`` falls smoothly (C2) from 1 to 0 while its
+    ``nu = 0.5``), so a plain switch there made ``R_r`` jump by 20-80 % (docs/conventions.md
+    sec. 5). Instead the thick model's weight ``w`` falls smoothly (C2) from 1 to 0 while its
     own ``gamma_thick`` rises from 0.9 to :data:`BLEND_END_GAMMA` (1.15, below ``gamma_max``
     for every ``nu``; the cylinder's Hertz model always exists): the contact radius is
     ``w r_thick + (1 - w) r_thin`` and the rolling resistance is ``w R_thick + (1 - w)

@@ -51,7 +51,7 @@ from .contact_size import estimate_contact_size
 __all__ = ["AutoGrid", "FixedGrid", "PERIOD_FACTOR", "union"]
 
 #: The period must exceed ``PERIOD_FACTOR max(contact size, V t_max)`` for the layer to recover
-#: between passes (docs/design.md section 3: measured on the exact 2D solution).
+#: between passes (docs/design.md sec. 2: measured on the exact 2D solution).
 PERIOD_FACTOR = 20.0
 MAX_SPHERE_CELLS = 2**16  # the memory budget (check_memory) is the real limit
 MAX_LINE_CELLS = 2**21

@@ -11,7 +11,7 @@ dissipated). *Deviation from paper*: [ZG] eq. 22 uses ``G*(omega_m)`` as printed
 negative rolling resistance; and its ``beta_y`` (eq. 23) carries ``rho V^2 q_y^2`` where the
 inertia term is ``rho V^2 q_x^2`` (``d^2/dt^2 = V^2 d^2/dx^2`` acts on every component).
 
-Closed forms (docs/design.md section 2), ``q = |q|``, ``a = qH``:
+Closed forms (docs/conventions.md sec. 4), ``q = |q|``, ``a = qH``:
 
 * incompressible, with inertia, ``eps = rho V^2 q_x^2 / (G_m q^2)``, ``s = sqrt(1 - eps)``,
   ``b = a s``::

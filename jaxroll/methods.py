@@ -113,8 +113,8 @@ class Direct(AbstractMethod):
     """The direct Fourier-series method of [ZG] sec. 4: a stationary pressure (Hertz/Jaffar on
     thick layers, the thin-layer shapes, or the static elastic pressure on a grid) dissipating in
     the rolling compliance ([ZG] eqs. 26, 29, 37, 42, 47). Cheap (milliseconds per point) but the
-    stationary-pressure assumption is low by ~20 % near and above the R_r peak (see the README's
-    accuracy table): for screening.
+    stationary-pressure assumption is low by ~20 % near and above the R_r peak (see the
+    accuracy table of docs/methods.md sec. 3): for screening.
 
     Args:
         pressure: ``"auto"`` (thick model where Jaffar's law has a solution, else thin),

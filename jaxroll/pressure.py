@@ -9,7 +9,7 @@ elastic* profile of a rigid sphere (or cylinder) pressed on the layer. Each mode
   (cylinder, load per unit length ``P'`` [N/m]) with the transform convention
   ``p_hat(q) = int p(x) e^{-i q.x} dA``.
 
-Models (``model`` argument; docs/design.md section 2):
+Models (``model`` argument; docs/conventions.md sec. 5):
 
 =====================  ===============================  ====================================
 model                  sphere, ``S(x)``                 cylinder (plane strain), ``S(x)``

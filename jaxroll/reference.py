@@ -2,7 +2,7 @@
 
 All quantities in SI units: loads ``P`` [N] (sphere) or ``P'`` [N/m] (cylinder, per unit
 length), radii and lengths [m], moduli [Pa], speeds [m/s], times [s]; rolling resistance
-``R_r`` [N] (sphere) or [N/m] (cylinder). Frame and sign conventions follow docs/design.md section 2:
+``R_r`` [N] (sphere) or [N/m] (cylinder). Frame and sign conventions follow docs/conventions.md sec. 3:
 coordinates move with the roller, which travels toward ``+x``; ``x = 0`` lies below the
 roller's centre; pressure ``p >= 0``; ``R_r > 0`` opposes the motion.
 
@@ -10,10 +10,10 @@ Contents
 --------
 - Elastic Hertz contacts: :func:`hertz_cylinder`, :func:`hertz_cylinder_pressure`
   (plane strain, ``E* = 2G/(1-nu)``), :func:`hertz_sphere`.
-- Thin incompressible elastic layer under a cylinder (docs/design.md section 4, [ZG] sec. 4.4):
+- Thin incompressible elastic layer under a cylinder (docs/validation.md sec. 1, [ZG] sec. 4.4):
   :func:`thin_layer_cylinder`, :func:`thin_layer_cylinder_pressure`.
 - Exact rolling of a rigid cylinder on a frictionless standard-linear-solid half-space
-  (Hunter's problem, re-derived; docs/design.md section 4): :func:`exact_cylinder_halfspace` and its
+  (Hunter's problem, re-derived; docs/validation.md sec. 1): :func:`exact_cylinder_halfspace` and its
   dimensionless core :func:`exact_cylinder_halfspace_dimensionless`.
 - Persson-type half-space limits (aperiodic ``L -> inf`` limit of [ZG] eqs. 26/29 with the
   stationary Hertz pressure): :func:`persson_cylinder_halfspace` (closed form, JAX) and
@@ -80,7 +80,7 @@ def hertz_cylinder(load, radius, G, nu=0.5) -> jax.Array:
     """Hertz half-width ``a`` [m] of a rigid cylinder on an elastic half-space (plane strain).
 
     ``a = sqrt(4 P' R / (pi E*))`` with ``E* = 2 G/(1 - nu)`` (``= 4 G`` for ``nu = 0.5``, so
-    ``a = sqrt(P' R/(pi G))``, docs/design.md section 4).
+    ``a = sqrt(P' R/(pi G))``, docs/validation.md sec. 1).
 
     Args:
         load: ``P'`` [N/m], load per unit length. radius: ``R`` [m]. G: shear modulus [Pa].
@@ -125,7 +125,7 @@ def hertz_sphere(load, radius, G, nu=0.5) -> HertzSphere:
 
 def thin_layer_cylinder(load, radius, H, G) -> jax.Array:
     """Contact half-width ``a`` [m] of a rigid cylinder on a thin incompressible elastic layer
-    bonded to a rigid base (docs/design.md section 4, [ZG] sec. 4.4 in 2D):
+    bonded to a rigid base (docs/validation.md sec. 1, [ZG] sec. 4.4 in 2D):
     ``a = (15 P' R H^3 / (2 G))^(1/5)``.
 
     Thin-layer law ``u = -(H^3/(3G)) p''`` (u into the layer) with
@@ -223,7 +223,7 @@ def exact_cylinder_halfspace_dimensionless(zeta, f):
     ``rK = K1/K0 (lam)``, ``w = rI/(rI + rK)``:
     ``m/a0 = zeta f/(1+f) w``; ``1 - (h/a0)^2 = 2 (m/a0)(h/a0) rK``;
     ``R_r R/(P' a0) = zeta f/(1+f) [w (1 - h^2/a0^2) + lam zeta^2 D]`` with
-    ``D = lam I2(kappa)/I0(kappa) + 2 rI w/(1+f)``. This is docs/design.md section 4's
+    ``D = lam I2(kappa)/I0(kappa) + 2 rI w/(1+f)``. This is docs/validation.md sec. 1's
     ``[(m - c/(1+f)) P' - pi G0 h^2 (m - c)/R]/R`` rearranged, using
     ``I0 - I2 = 2 I1/kappa``, into a sum of positive terms (no cancellation for
     ``zeta -> 0`` or ``zeta -> inf``). ``zeta = 0`` gives the static limit ``(~1e-100, 1, ~1e-100)``
@@ -247,7 +247,7 @@ def exact_cylinder_halfspace_dimensionless(zeta, f):
 @jax.jit
 def exact_cylinder_halfspace(material, radius, load, speed) -> ExactCylinder:
     """Exact rolling resistance of a rigid cylinder on a frictionless standard-linear-solid
-    half-space (plane strain, incompressible; Hunter's problem, re-derived; docs/design.md section 4).
+    half-space (plane strain, incompressible; Hunter's problem, re-derived; docs/validation.md sec. 1).
 
     With ``c = V tau``, ``a0 = sqrt(P' R/(pi G0))``, contact ``-b < x < a``,
     ``h = (a+b)/2``, ``m = (a-b)/2``, ``lam = h/c``, ``kappa = (1+f) lam``,
@@ -306,7 +306,7 @@ def persson_cylinder_halfspace(material, radius, load, speed, half_width=None) -
     Hertz pressure of half-width ``a``.
 
     From eq. 29 with ``sigma_m = (P'/L) S(q a)``, ``S(x) = 2 J1(x)/x``, ``q = 2 pi m/L`` and the
-    half-space compliance ``T = 1/(2 G_m q)``, ``G_m = conj G*(q V)`` (docs/design.md section 2 sign fix):
+    half-space compliance ``T = 1/(2 G_m q)``, ``G_m = conj G*(q V)`` (docs/conventions.md sec. 3, mode modulus):
     ``R_r = (P'^2/pi) int_0^inf q S(qa)^2 Im T(q) dq`` whose closed form for the standard
     linear solid is
     ``R_r = (2 P'^2 dJ/(pi a)) beta [1/2 - I1(1/beta) K1(1/beta)]``, ``beta = V tau/a``,
@@ -316,8 +316,8 @@ def persson_cylinder_halfspace(material, radius, load, speed, half_width=None) -
     a sum of positive terms: no cancellation as ``beta -> inf``.
 
     Half-width: by default the Hertz half-width with the **static** modulus,
-    ``a = sqrt(P' R/(pi G0))``, the convention of the direct series (docs/design.md section 2,
-    "contact radius uses the static modulus"); with this ``a`` the formula equals the
+    ``a = sqrt(P' R/(pi G0))``, the convention of the direct series (docs/conventions.md sec. 5,
+    "the contact radius uses the static modulus"); with this ``a`` the formula equals the
     aperiodic direct integral exactly. Pass ``half_width`` [m] for another choice (e.g. the
     glassy-modulus half-width). This is *not* the exact solution
     (:func:`exact_cylinder_halfspace`): the pressure is kept stationary (Hertz, symmetric).
@@ -371,7 +371,7 @@ def persson_sphere_halfspace(material, radius, load, speed, contact_radius=None)
     ``sin 2x`` parts integrated by QAWF (relative error ~1e-10).
 
     Contact radius: default Hertz with the static modulus ``E = 3 G0`` (``nu = 0.5``),
-    ``r_c = (3 P R/(4 E*))^(1/3)``, ``E* = 4 G0`` (docs/design.md section 2). Pass ``contact_radius``
+    ``r_c = (3 P R/(4 E*))^(1/3)``, ``E* = 4 G0`` (docs/conventions.md sec. 5). Pass ``contact_radius``
     [m] for another choice (e.g. Jaffar's thick-layer radius).
 
     Args:

@@ -1,6 +1,6 @@
 """Bessel functions in pure JAX: float64, jittable, vmappable, differentiable to any order.
 
-Why this module exists (docs/design.md section 6): ``jax.scipy.special.bessel_jn`` returns NaN at
+Why this module exists (docs/design.md sec. 4): ``jax.scipy.special.bessel_jn`` returns NaN at
 ``x = 0``, is wrong for ``x > 26`` and has wrong gradients; JAX has no ``K0``/``K1`` at all.
 
 Functions (elementwise on real arrays of any shape, float64):

@@ -35,7 +35,7 @@ against 1 and 3, uneven sizes). The chunk width per device depends on the device
 (chunks of 1 against vectorised chunks: 6e-16 relative, measured), so compare with a
 tolerance of a few ulp where bitwise identity is not essential.
 
-Memory and speed: docs/design.md sec. 6 measured 345 cases x 5000 Fourier modes in 3.6 s with
+Memory and speed: docs/design.md sec. 4 measured 345 cases x 5000 Fourier modes in 3.6 s with
 7 MiB working memory in chunks of 1, against 4.7-5.7 s with 2-5 GB as one vmap.
 ``benchmarks/bench_sweep.py`` (one CPU device, 345 points x 5000 modes of a closed-form series,
 2 cores shared with other jobs, so timings are noisy): sweeps in chunks of 1-256 ran 1.3-4x
@@ -305,7 +305,7 @@ def sweep(
         checkpoint: wrap each chunk in ``jax.checkpoint``, so that reverse-mode
             differentiation stores only the chunk inputs and recomputes the chunk in the
             backward pass: the gradient's working memory stays bounded by one chunk per
-            device too (docs/design.md sec. 6: 1.5 GB without, 150 MiB with). No effect on a plain
+            device too (docs/design.md sec. 4: 1.5 GB without, 150 MiB with). No effect on a plain
             evaluation; ``False`` skips the recomputation (not faster in our measurement).
 
     Returns:

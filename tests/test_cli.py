@@ -48,7 +48,7 @@ def test_sweep_grid_axes(tmp_path):
 
 
 def test_sweep_outside_validity_writes_valid_0_and_warns(tmp_path, capsys):
-    # the README's sweep example with the direct method: gamma = r_c/H = 3.1 and 0.91 at 100 N,
+    # docs/api.md's sweep example with the direct method: gamma = r_c/H = 3.1 and 0.91 at 100 N,
     # outside both pressure models, so every point is flagged (it used to be written silently)
     argv = ["sweep", "--vary", "V=1e-4:1:3:log", "--vary", "H=0.002,0.005", "--method", "direct", "--quiet"]
     assert main([*argv, "--out", str(tmp_path)]) == 0

@@ -1,6 +1,6 @@
 """Tests of the full 2D rolling cylinder (jaxroll.cylinder).
 
-Oracles: the exact SLS cylinder on a half-space (jaxroll.reference, docs/design.md section 4), 2D
+Oracles: the exact SLS cylinder on a half-space (jaxroll.reference, docs/validation.md sec. 1), 2D
 Hertz with the relaxed and glassy moduli, the thin incompressible layer closed form, the
 direct Fourier-series method (f -> 0), central finite differences. Default-suite cases share
 one compiled function at reduced resolution; full resolution is marked slow.

@@ -137,7 +137,7 @@ def test_periodic_matches_paper_formula(model, layer, P, Rr):
 
 def test_periodic_converges_to_aperiodic_at_low_speed():
     # oracle: the aperiodic limit (single roller); at V tau << L the periodic train is the
-    # same physics and the gap is truncation only: N = 50 falls 5-25 % short (docs/design.md section 2: 78-95 %)
+    # same physics and the gap is truncation only: N = 50 falls 5-25 % short (docs/conventions.md sec. 6: 78-95 %)
     # and the gap shrinks ~1/N (the S^2 ~ q^-4 tail); tolerances from that 1/N law
     lay = jr.Layer(30e-3)
     ap = float(rr(lay, load=50.0, speed=1e-4).value)
@@ -152,7 +152,7 @@ def test_periodic_converges_to_aperiodic_at_low_speed():
 
 @pytest.mark.parametrize("V,lo,hi", [(1.0, 0.94, 0.98), (3.0, 0.94, 0.98), (10.0, 0.94, 0.98)])
 def test_periodic_vs_aperiodic_high_speed(V, lo, hi):
-    # oracle: docs/design.md section 2: at V tau > L/(2 pi)... the layer does not recover between
+    # oracle: docs/conventions.md sec. 6: at V tau > L/(2 pi)... the layer does not recover between
     # passes, the periodic train gives 2-6 % less at 1-10 m/s for L = 0.2 m; N = 200 makes the
     # truncation < 1e-3 here (its estimate is checked)
     lay = jr.Layer(30e-3)
@@ -172,7 +172,7 @@ def test_cylinder_periodic_converges():
 
 @pytest.mark.slow
 def test_periodic_2000_terms_low_speed():
-    # docs/design.md section 2: even 2000 terms still miss (by up to 0.1 %) at V = 1e-4 m/s (H = 30 mm,
+    # docs/conventions.md sec. 6: even 2000 terms still miss (by up to 0.1 %) at V = 1e-4 m/s (H = 30 mm,
     # L = 0.2 m); measured here at P = 50 N: 0.045 %
     lay = jr.Layer(30e-3)
     ap = float(rr(lay, load=50.0, speed=1e-4).value)

@@ -18,7 +18,7 @@ G0 = 3e6
 
 
 def test_jaffar_coefficients_incompressible():
-    # oracle: docs/design.md's 15-digit values; tolerance: scipy quad at epsrel 1e-13
+    # oracle: docs/conventions.md sec. 5's 15-digit values; tolerance: scipy quad at epsrel 1e-13
     b1, b2 = jr.jaffar_coefficients(0.5)
     assert b1 == pytest.approx(-0.957769288898079, rel=1e-12)
     assert b2 == pytest.approx(1.749436123749906, rel=1e-12)
@@ -85,7 +85,7 @@ def test_thin_compressible_radius_from_oedometric_stiffness():
 
 
 def test_cylinder_half_widths():
-    # oracles: reference.hertz_cylinder (a = sqrt(P' R/(pi G0))) and docs/design.md's thin-layer law
+    # oracles: reference.hertz_cylinder (a = sqrt(P' R/(pi G0))) and docs/validation.md sec. 1's thin-layer law
     a, _ = jr.contact_radius(MAT, jr.Layer(jnp.inf), 0.02, 1000.0, geometry="cylinder")
     assert float(a) == pytest.approx(float(jr.hertz_cylinder(1000.0, 0.02, G0)), rel=1e-13)
     a, _ = jr.contact_radius(MAT, jr.Layer(1e-4), 0.02, 1000.0, geometry="cylinder", model="thin")

@@ -40,7 +40,7 @@ def test_hertz_cylinder_against_half_space_green_function():
         pv = si.quad(lambda s: pfun(s), -a, a, weight="cauchy", wvar=x, epsabs=0, epsrel=1e-11, limit=400)[0]
         slope = -(2 / (np.pi * e_star)) * (-pv)  # int p/(x - s) = -int p/(s - x)
         assert slope == pytest.approx(-x / R, rel=1e-8)  # Cauchy-PV quadrature error
-    # nu = 0.5 default: a = sqrt(P' R/(pi G)) (docs/design.md section 4)
+    # nu = 0.5 default: a = sqrt(P' R/(pi G)) (docs/validation.md sec. 1)
     assert float(ref.hertz_cylinder(P, R, G)) == pytest.approx(np.sqrt(P * R / (np.pi * G)), rel=1e-15)
     assert float(ref.hertz_cylinder_pressure(2 * a, P, R, G)) == 0.0
     assert np.isfinite(jax.grad(lambda x: ref.hertz_cylinder_pressure(x, P, R, G))(1.0))
@@ -72,12 +72,12 @@ def test_thin_layer_cylinder_law():
 
 
 # --------------------------------------------------------------------------------------
-# exact viscoelastic cylinder (docs/design.md section 4)
+# exact viscoelastic cylinder (docs/validation.md sec. 1)
 # --------------------------------------------------------------------------------------
 
 
 def _mp_exact(zeta, f, dps=30):
-    """Independent 30-digit solution of docs/design.md section 4's equations as printed (a0 = 1)."""
+    """Independent 30-digit solution of docs/validation.md sec. 1's equations as printed (a0 = 1)."""
     mpmath.mp.dps = dps
     zeta, f = mpmath.mpf(zeta), mpmath.mpf(f)
 
@@ -116,7 +116,7 @@ def test_exact_cylinder_vs_mpmath(f):
 def test_exact_cylinder_peak_anchor_f1():
     fun = jax.jit(lambda lz: -ref.exact_cylinder_halfspace_dimensionless(jnp.exp(lz), 1.0)[0])
     res = so.minimize_scalar(lambda lz: float(fun(lz)), bracket=(-1.0, 0.0, 1.0), tol=1e-12)
-    # docs/design.md section 4 anchor, given to 5 digits: 0.19729 at zeta = 1.087
+    # docs/validation.md sec. 1 anchor, given to 5 digits: 0.19729 at zeta = 1.087
     assert -res.fun == pytest.approx(0.19729, abs=1e-5)
     assert np.exp(res.x) == pytest.approx(1.087, abs=1e-3)
 
