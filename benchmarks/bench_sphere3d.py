@@ -1,6 +1,7 @@
 """Benchmark of the full 3D rolling sphere (``jr.Full``, geometry "sphere"): the paper's reference case.
 
 Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3] [--period 0.2 | none] [--grad]
+      [--restart N]
 
 Reference case ([ZG] Table 1 / docs/design.md sec. 3): 23 log-spaced speeds 1e-4..1 m/s x 15
 loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at the paper's
@@ -37,6 +38,8 @@ def main():
     ap.add_argument("--H", type=float, default=0.03)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--tol", type=float, default=1e-10, help="contact solver tolerance (scaled residual)")
+    ap.add_argument("--restart", type=int, default=None,
+                    help="GMRES Krylov basis size (default: jr.contact.GMRES's own)")
     ap.add_argument("--grad", action="store_true", help="also time the gradient of the table w.r.t. G0, tau, f, H")
     ap.add_argument("--period", default="0.2", help="period [m] (the paper's 0.2) or 'none' (an infinite layer)")
     args = ap.parse_args()
@@ -51,7 +54,8 @@ def main():
     mat = jr.StandardLinearSolid(G0, TAU, F)
     r_max = float(jr.estimate_contact_size(mat, jr.Layer(args.H), R, float(loads.max())))
     window = max(41 if not args.quick else 21, 2 * math.ceil(1.15 * r_max / spacing) + 1)
-    method = jr.Full(grid=jr.FixedGrid(spacing, window, period=period, n_terms=n_terms), tol=args.tol)
+    method = jr.Full(grid=jr.FixedGrid(spacing, window, period=period, n_terms=n_terms), tol=args.tol,
+                     linear_solver=jr.contact.GMRES(restart=args.restart))
 
     def table(G, tau, f, H, loads, speeds):
         out = jr.rolling_resistance_grid(jr.StandardLinearSolid(G, tau, f), jr.Layer(H), radius=R, loads=loads,

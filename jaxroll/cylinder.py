@@ -131,7 +131,7 @@ def kernel_builder(material, layer: Layer, grid: FixedGrid, images: int = IMAGES
 
 
 def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e-10, max_steps=50,
-          edge_smoothing=None, init=None) -> CylinderSolution:
+          edge_smoothing=None, init=None, linear_solver=_contact.GMRES()) -> CylinderSolution:
     """Solve the rolling contact of a rigid cylinder (radius ``R`` [m], load per unit length
     ``P'`` [N/m]) on the window of ``grid`` with the operators ``kernel``
     (:func:`kernel_builder`); ``a_est`` [m] is the stationary half-width estimate (initial
@@ -149,7 +149,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
     guess = jnp.abs(x) < a_est
     sol = _contact.solve_contact(
         kernel.compliance, h, P, dx, initial_contact=guess, warm_start=init, tol=tol,
-        max_steps=max_steps,
+        max_steps=max_steps, linear_solver=linear_solver,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, a_est, R),
     )
     p = sol.pressure

@@ -31,6 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import contact as _contact
+from .contact.linear import check_linear_solver
 from . import cylinder, direct, slices, sphere3d
 from .contact_size import check_geometry, estimate_contact_size
 from .grids import AutoGrid, FixedGrid, check_memory
@@ -200,12 +201,15 @@ class Full(_GridMethod):
             vanishes with the cell size (0.25 on the paper's grid, 0.5 on coarser ones).
         tol: contact solver tolerance on the scaled residual.
         max_steps: active-set (and smoothing Newton) iteration limit.
+        linear_solver: the linear solver of the contact-set systems
+            (:class:`jaxroll.contact.GMRES`, default, or :class:`jaxroll.contact.Dense`).
     """
 
     grid: AutoGrid | FixedGrid = AutoGrid()
     edge_smoothing: float | None = eqx.field(static=True, default=None)
     tol: float = eqx.field(static=True, default=1e-10)
     max_steps: int = eqx.field(static=True, default=50)
+    linear_solver: _contact.AbstractLinearSolver = _contact.GMRES()
 
     def __check_init__(self):
         _check_grid(self.grid, "Full")
@@ -216,6 +220,7 @@ class Full(_GridMethod):
             raise ValueError(f"Full.tol must be a number in (0, 1); got {self.tol!r}")
         if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)) or self.max_steps < 1:
             raise ValueError(f"Full.max_steps must be a positive integer; got {self.max_steps!r}")
+        check_linear_solver(self.linear_solver, (_contact.GMRES, _contact.Dense), "Full.linear_solver")
 
     def grid_ndim(self, geometry):
         return 2 if geometry == "sphere" else 1
@@ -229,7 +234,7 @@ class Full(_GridMethod):
 
     def _solve(self, model, kernel, R, P, size, init=None):
         return model.solve(kernel, self.grid, R, P, size, tol=self.tol, max_steps=self.max_steps,
-                           edge_smoothing=self.edge_smoothing, init=init)
+                           edge_smoothing=self.edge_smoothing, init=init, linear_solver=self.linear_solver)
 
     def evaluate(self, material, layer, R, P, V, geometry):
         """``R_r`` [N, or N/m] from the full model of ``geometry``: the contact solved on the grid's

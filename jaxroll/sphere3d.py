@@ -265,7 +265,7 @@ class SphereSolution(eqx.Module):
 
 
 def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e-10, max_steps=50,
-          edge_smoothing=None, init=None) -> SphereSolution:
+          edge_smoothing=None, init=None, linear_solver=_contact.GMRES()) -> SphereSolution:
     """Solve the rolling contact of a rigid sphere (radius ``R`` [m], load ``P`` [N]) on the
     window of ``grid`` with the operators ``kernel`` (:func:`kernel_builder`); ``r_est`` [m] is
     the stationary contact radius estimate (initial contact set and the edge smoothing's gap
@@ -287,7 +287,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
     guess = (X * X + Y * Y) < r_est * r_est
     sol = _contact.solve_contact(
         kernel.compliance, h, P, dx * dx, initial_contact=guess, warm_start=init, tol=tol,
-        max_steps=max_steps,
+        max_steps=max_steps, linear_solver=linear_solver,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, r_est, R),
     )
     p = sol.pressure
