@@ -122,7 +122,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.special as sps
 
-from ._numerics import gmres
+from ._numerics import check_input, gmres
 from .result import RESULTS, first_failure
 
 __all__ = [
@@ -681,6 +681,8 @@ def solve_contact(
             raise ValueError("warm_start must have the window shape")
         initial_contact = jnp.where(warm_start.valid, warm_start.contact, initial_contact)
         warm = warm_start
+    if not penetration_mode:
+        value = check_input(value, ~(value > 0), "the load must be positive")
     return _solve_contact(
         compliance,
         h,
@@ -744,7 +746,6 @@ def _solve_contact(
         def last_row(pt, dt, lw):
             return dt
     else:
-        value = eqx.error_if(value, ~(value > 0), "the load must be positive")
         n0 = jnp.maximum(jnp.sum(mask0), 1).astype(float)
         p_s = sg(value / (cell_area * n0))
         g_s = p_s * c0

@@ -1,0 +1,70 @@
+"""Failures: the one-line :class:`jaxroll.SolverError` of ``throw=True``, and compiled programs
+free of host callbacks for concrete inputs (so that JAX's persistent compilation cache can keep
+them)."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import pytest
+
+import jaxroll as jr
+from jaxroll.cli import _runtime_message
+
+SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
+THIN = jr.Layer(0.005)  # at 150 N, R = 2 cm: gamma > 0.9, outside Jaffar's thick-layer model
+R = 0.02
+
+
+def _direct(load, **kw):
+    return jr.rolling_resistance(SLS, THIN, radius=R, load=load, speed=0.01, method="direct", **kw)
+
+
+# ------------------------------------------------------------------ one-line failures
+
+
+def test_throw_raises_a_solver_error_with_the_code_in_one_line():
+    code = jr.RESULTS.outside_pressure_model
+    with pytest.warns(jr.ValidityWarning):
+        assert int(_direct(150.0, throw=False).result) == code  # the code the result carries
+    with pytest.raises(jr.SolverError) as exc:
+        _direct(150.0)
+    err = exc.value
+    assert isinstance(err, RuntimeError)
+    assert (err.code, err.name, err.reason) == (code, "outside_pressure_model", jr.RESULTS.message(code))
+    text = str(err)
+    assert "\n" not in text and text.startswith("rolling resistance not trustworthy [RESULTS.outside_pressure_model]")
+    assert text.endswith(jr.RESULTS.message(code))
+    # a table: the first failing point's code, and the count
+    with pytest.raises(jr.SolverError, match=r"at 1 of 2 points") as exc:
+        jr.rolling_resistance_grid(SLS, THIN, radius=R, loads=[20.0, 150.0], speeds=[0.01], method="direct",
+                                   throw=True)
+    assert exc.value.code == code and (exc.value.count, exc.value.total) == (1, 2)
+
+
+def test_under_jit_the_failure_carries_the_same_line():
+    # a traced load: the check runs inside the program (a host callback) and surfaces as
+    # JAX's runtime error, whose text holds the SolverError line
+    code = jr.RESULTS.outside_pressure_model
+    with pytest.raises(jax.errors.JaxRuntimeError) as exc:
+        jax.block_until_ready(jax.jit(lambda P: _direct(P).value)(150.0))
+    assert _runtime_message(exc.value) == jr.SolverError.message(code)
+
+
+def test_front_door_programs_hold_no_host_callbacks_for_concrete_inputs():
+    def hlo(fn, *args):
+        return jax.jit(fn).lower(*args).as_text()
+
+    # concrete inputs: checked on the host, the program only computes (cacheable)
+    assert "callback" not in hlo(lambda: _direct(20.0, throw=False).value)
+    # a traced input: its rules are checked inside the program
+    assert "callback" in hlo(lambda P: _direct(P, throw=False).value, 20.0)
+
+
+def test_concrete_inputs_are_checked_on_the_host():
+    # tree_at skips the constructor's checks; the front door checks the values again
+    bad = eqx.tree_at(lambda m: m.G0, SLS, jnp.asarray(-3e6))
+    with pytest.raises(ValueError, match=r"G0 must be a positive, finite shear modulus in Pa; got -3e\+06"):
+        jr.rolling_resistance(bad, THIN, radius=R, load=20.0, speed=0.01, method="direct")
+    flat = eqx.tree_at(lambda l: l.H, THIN, jnp.asarray(-1.0))
+    with pytest.raises(ValueError, match="H must be a positive thickness"):
+        jr.rolling_resistance(SLS, flat, radius=R, load=20.0, speed=0.01, method="direct")
