@@ -1,6 +1,7 @@
-"""Failures: the one-line :class:`jaxroll.SolverError` of ``throw=True``, and compiled programs
-free of host callbacks for concrete inputs (so that JAX's persistent compilation cache can keep
-them)."""
+"""Failures and memory limits: the one-line :class:`jaxroll.SolverError` of ``throw=True``,
+compiled programs free of host callbacks for concrete inputs (so that JAX's persistent
+compilation cache can keep them), and the memory budget read from the process's real limits
+(address space, cgroup)."""
 
 import equinox as eqx
 import jax
@@ -8,6 +9,7 @@ import jax.numpy as jnp
 import pytest
 
 import jaxroll as jr
+from jaxroll import grids
 from jaxroll.cli import _runtime_message
 
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
@@ -68,3 +70,75 @@ def test_concrete_inputs_are_checked_on_the_host():
     flat = eqx.tree_at(lambda l: l.H, THIN, jnp.asarray(-1.0))
     with pytest.raises(ValueError, match="H must be a positive thickness"):
         jr.rolling_resistance(SLS, flat, radius=R, load=20.0, speed=0.01, method="direct")
+
+
+# ------------------------------------------------------------------ memory budget
+
+GiB = 2**30
+
+
+@pytest.fixture
+def limits(tmp_path, monkeypatch):
+    """A fake /proc and /sys/fs/cgroup (16 GiB available, no limit) and no RLIMIT_AS; tests
+    write the limits they need into ``limits.proc`` / ``limits.cgroup`` / ``limits.rlimit``."""
+    import resource
+
+    proc, cgroup = tmp_path / "proc", tmp_path / "cgroup"
+    (proc / "self").mkdir(parents=True)
+    cgroup.mkdir()
+    (proc / "meminfo").write_text(f"MemTotal: {32 * GiB // 1024} kB\nMemAvailable: {16 * GiB // 1024} kB\n")
+    (proc / "self" / "status").write_text(f"Name: python\nVmSize: {GiB // 1024} kB\n")
+    (proc / "self" / "cgroup").write_text("4:memory:/box\n0::/box\n")
+    monkeypatch.setattr(grids, "PROC", proc)
+    monkeypatch.setattr(grids, "CGROUP", cgroup)
+    monkeypatch.delenv("JAXROLL_MEMORY_BUDGET", raising=False)
+    state = type("Limits", (), {"proc": proc, "cgroup": cgroup, "rlimit": resource.RLIM_INFINITY})()
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (state.rlimit, resource.RLIM_INFINITY))
+    return state
+
+
+def _write(path, text):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
+def test_budget_is_half_the_available_memory_without_limits(limits):
+    budget, source = grids.memory_limit()
+    assert budget == 8 * GiB and "available memory" in source
+    assert jr.memory_budget() == budget
+
+
+def test_budget_honours_the_cgroup_v2_limit(limits):
+    _write(limits.cgroup / "box" / "memory.max", f"{6 * GiB}\n")
+    _write(limits.cgroup / "box" / "memory.current", f"{GiB}\n")
+    assert grids.memory_limit() == (int(2.5 * GiB), "half of the cgroup memory limit left (container), 5.0 GiB")
+    _write(limits.cgroup / "box" / "memory.max", "max\n")  # no limit: back to the available memory
+    assert grids.memory_limit()[0] == 8 * GiB
+
+
+def test_budget_honours_the_cgroup_v1_limit(limits):
+    _write(limits.cgroup / "memory" / "memory.limit_in_bytes", f"{4 * GiB}\n")
+    _write(limits.cgroup / "memory" / "memory.usage_in_bytes", f"{GiB}\n")
+    assert grids.memory_limit()[0] == int(1.5 * GiB)
+    _write(limits.cgroup / "memory" / "memory.limit_in_bytes", "9223372036854771712\n")  # the kernel's "none"
+    assert grids.memory_limit()[0] == 8 * GiB
+
+
+def test_budget_honours_the_address_space_limit(limits):
+    limits.rlimit = 3 * GiB  # VmSize is 1 GiB: 2 GiB left
+    budget, source = grids.memory_limit()
+    assert budget == GiB and "RLIMIT_AS" in source
+
+
+def test_memory_error_is_one_line_with_estimate_budget_and_source(limits):
+    _write(limits.cgroup / "box" / "memory.max", f"{6 * 10**9}\n")  # a 6 GB container
+    _write(limits.cgroup / "box" / "memory.current", "0\n")
+    big = jr.Full(grid=jr.FixedGrid(1e-4, 55, period=0.4))
+    need = big.grid.memory_estimate(2)
+    assert need > 3e9  # above half of the container's limit, below the available memory
+    with pytest.raises(ValueError) as exc:
+        big.check_memory("sphere")
+    text = str(exc.value)
+    assert "\n" not in text
+    assert f"needs about {need / GiB:.1f} GiB" in text and f"budget of {3e9 / GiB:.1f} GiB" in text
+    assert "cgroup memory limit" in text and "JAXROLL_MEMORY_BUDGET" in text
