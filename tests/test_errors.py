@@ -1,7 +1,14 @@
-"""Failures and memory limits: the one-line :class:`jaxroll.SolverError` of ``throw=True``,
-compiled programs free of host callbacks for concrete inputs (so that JAX's persistent
-compilation cache can keep them), and the memory budget read from the process's real limits
-(address space, cgroup)."""
+"""Failures, first calls and memory limits: the one-line :class:`jaxroll.SolverError` of
+``throw=True``, compiled programs free of host callbacks (so that JAX's persistent compilation
+cache can keep them), the cache's switch and directory, and the memory budget read from the
+process's real limits (address space, cgroup)."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import equinox as eqx
 import jax
@@ -9,12 +16,13 @@ import jax.numpy as jnp
 import pytest
 
 import jaxroll as jr
-from jaxroll import grids
+from jaxroll import _compilation_cache, grids
 from jaxroll.cli import _runtime_message
 
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 THIN = jr.Layer(0.005)  # at 150 N, R = 2 cm: gamma > 0.9, outside Jaffar's thick-layer model
 R = 0.02
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _direct(load, **kw):
@@ -70,6 +78,60 @@ def test_concrete_inputs_are_checked_on_the_host():
     flat = eqx.tree_at(lambda l: l.H, THIN, jnp.asarray(-1.0))
     with pytest.raises(ValueError, match="H must be a positive thickness"):
         jr.rolling_resistance(SLS, flat, radius=R, load=20.0, speed=0.01, method="direct")
+
+
+# ------------------------------------------------------------------ compilation cache
+
+
+def test_cache_directory_follows_the_environment(tmp_path):
+    home, tag = Path("~/.cache").expanduser(), _compilation_cache.processor_tag()
+    assert tag == _compilation_cache.processor_tag() and "/" not in tag  # one subdirectory per processor type
+    assert _compilation_cache.cache_directory({}) == home / "jaxroll" / "jax" / tag
+    assert _compilation_cache.cache_directory({"XDG_CACHE_HOME": str(tmp_path)}) == tmp_path / "jaxroll" / "jax" / tag
+    for off in ("0", "off", "False", "no"):
+        assert _compilation_cache.cache_directory({"JAXROLL_COMPILATION_CACHE": off}) is None
+    assert _compilation_cache.cache_directory({"JAXROLL_COMPILATION_CACHE": "1"}) == home / "jaxroll" / "jax" / tag
+    assert _compilation_cache.cache_directory({"JAXROLL_COMPILATION_CACHE": str(tmp_path / "c")}) == tmp_path / "c" / tag
+
+
+_PROBE = textwrap.dedent("""
+    import json, sys
+    import jax
+    import jaxroll as jr
+    events = []
+    jax.monitoring.register_event_listener(lambda name, **kw: events.append(name))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)  # store even a tiny program
+    mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
+    jax.block_until_ready(jax.jit(lambda w: jr.storage_modulus(mat, w))(jax.numpy.linspace(1.0, 2.0, 7)))
+    print(json.dumps({"dir": jax.config.jax_compilation_cache_dir,
+                      "hits": events.count("/jax/compilation_cache/cache_hits")}))
+""")
+
+
+def _probe(env):
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COMPILATION", "JAXROLL_"))} | env
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    out = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_switched_off_cache_writes_nothing_and_a_jax_setting_wins(tmp_path):
+    got = _probe({"XDG_CACHE_HOME": str(tmp_path), "JAXROLL_COMPILATION_CACHE": "0"})
+    assert got["dir"] is None and not (tmp_path / "jaxroll").exists()
+    mine = tmp_path / "mine"
+    got = _probe({"XDG_CACHE_HOME": str(tmp_path), "JAX_COMPILATION_CACHE_DIR": str(mine)})
+    assert got["dir"] == str(mine) and not (tmp_path / "jaxroll").exists()
+
+
+def test_second_process_loads_the_compiled_program_from_the_cache(tmp_path):
+    cache = tmp_path / "cache"
+    first = _probe({"JAXROLL_COMPILATION_CACHE": str(cache)})
+    files = sorted(p.name for p in cache.rglob("*") if p.is_file())
+    assert Path(first["dir"]).parent == cache and files
+    second = _probe({"JAXROLL_COMPILATION_CACHE": str(cache)})
+    assert second["hits"] > first["hits"]  # (the first may hit too: one program compiled twice)
+    assert sorted(p.name for p in cache.rglob("*") if p.is_file()) == files  # nothing compiled anew
 
 
 # ------------------------------------------------------------------ memory budget
