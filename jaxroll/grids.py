@@ -162,8 +162,8 @@ def memory_limit() -> tuple[int, str]:
     :data:`MEMORY_FRACTION` (half) of the smallest of: the memory available now
     (``MemAvailable``), the address-space limit left to this process (``RLIMIT_AS`` minus its
     virtual size) and the cgroup (container) memory limit left (v2 ``memory.max`` minus
-    ``memory.current``, v1 ``memory.limit_in_bytes`` minus ``memory.usage_in_bytes``); 8 GiB
-    where none is known."""
+    ``memory.current``, v1 ``memory.limit_in_bytes`` minus ``memory.usage_in_bytes``), taken as
+    8 GiB where none is readable."""
     text = os.environ.get("JAXROLL_MEMORY_BUDGET")
     if text:
         m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([KMGT]?)(i?B)?\s*", text, re.IGNORECASE)
