@@ -68,6 +68,12 @@ def test_front_door_programs_hold_no_host_callbacks_for_concrete_inputs():
     assert "callback" not in hlo(lambda: _direct(20.0, throw=False).value)
     # a traced input: its rules are checked inside the program
     assert "callback" in hlo(lambda P: _direct(P, throw=False).value, 20.0)
+    # the contact solver's program too (a coarse cylinder grid: 24 cells in the window)
+    full, half = jr.Full(grid=jr.FixedGrid(2e-4, 24)), jr.Layer(jnp.inf)  # (built inside jit, H would be traced)
+    cylinder = lambda P: jr.rolling_resistance(SLS, half, radius=R, load=P, speed=0.01,  # noqa: E731
+                                               geometry="cylinder", method=full, throw=False).value
+    assert "callback" not in hlo(lambda: cylinder(1e4))
+    assert "callback" in hlo(cylinder, 1e4)
 
 
 def test_concrete_inputs_are_checked_on_the_host():
