@@ -1,10 +1,16 @@
 """jaxroll: differentiable viscoelastic rolling resistance of rigid spheres and cylinders on
 viscoelastic layers of finite thickness.
 
-Importing jaxroll enables JAX's float64 mode (see ``jaxroll._numerics``).
+Importing jaxroll enables JAX's float64 mode (see ``jaxroll._numerics``) and JAX's persistent
+compilation cache in the user's cache directory, ``~/.cache/jaxroll/jax`` (environment variable
+``JAXROLL_COMPILATION_CACHE``: ``0`` switches it off, a path moves it; see
+``jaxroll._compilation_cache``).
 """
 
 from . import _numerics  # noqa: F401  (enables float64 first)
+from . import _compilation_cache
+
+_compilation_cache.enable()
 
 # --- material (G*(omega)) ---------------------------------------------------------------
 from .material import (
@@ -52,7 +58,7 @@ from . import contact, cylinder, direct, slices, sphere3d  # noqa: F401  (the en
 # --- methods, grids, results and the front doors ------------------------------------------
 from .grids import AutoGrid, FixedGrid, memory_budget
 from .methods import AbstractMethod, Direct, Full, Slices
-from .result import RESULTS, RollingResult, ValidityWarning
+from .result import RESULTS, RollingResult, SolverError, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
 from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
 from .fit import DataWarning, DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv

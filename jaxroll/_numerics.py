@@ -7,9 +7,22 @@ physics function here needs float64 (layer compliances span 1e-20..1e-3 m/Pa, th
 solvers need 1e-10 residuals). Public functions coerce their inputs with :func:`as_float`,
 which raises if 64-bit mode has been switched off again afterwards, so a float32 input is
 promoted, never computed in float32 silently.
+
+Input checks
+------------
+A rule on an input value (``R > 0``, ``G0 > 0``, ``H > 0``, ...) is checked where the value is
+known. Concrete values are checked on the host before anything is compiled (``ValueError``
+naming the value); traced values (under a user's ``jax.jit``, ``jax.vmap``, ``jax.grad``) by
+:func:`check_input` inside the compiled program (``equinox.error_if``, a host callback). The
+front doors check concrete inputs on the host and trace their programs under
+``input_checks(False)``, so those programs hold no callbacks: JAX's persistent compilation
+cache only stores programs without host callbacks.
 """
 
 from __future__ import annotations
+
+import contextlib
+import contextvars
 
 import equinox as eqx
 import jax
@@ -18,8 +31,8 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["as_float", "check_x64", "newton_root", "NewtonInfo", "roller_inputs", "to_complex",
-           "where_safe"]
+__all__ = ["as_float", "check_input", "check_x64", "input_checks", "newton_root", "NewtonInfo", "roller_inputs",
+           "to_complex", "where_safe"]
 
 
 def check_x64() -> None:
@@ -29,6 +42,31 @@ def check_x64() -> None:
             "jaxroll needs float64: JAX's 64-bit mode was disabled after importing jaxroll. "
             "Re-enable it with jax.config.update('jax_enable_x64', True)."
         )
+
+
+_INPUT_CHECKS = contextvars.ContextVar("jaxroll_input_checks", default=True)
+
+
+@contextlib.contextmanager
+def input_checks(enabled: bool):
+    """Within the block, :func:`check_input` adds its checks to the programs being traced
+    (``enabled=True``, the default everywhere) or leaves them out (``False``: the front doors,
+    after checking the same rules on concrete inputs on the host). The choice must be part of
+    the compilation key of the program traced under it (a static argument)."""
+    token = _INPUT_CHECKS.set(bool(enabled))
+    try:
+        yield
+    finally:
+        _INPUT_CHECKS.reset(token)
+
+
+def check_input(x, failed, message: str):
+    """``x``, with a check inside the compiled program that raises ``message`` (one line)
+    where ``failed`` (``equinox.error_if``: works under jit/vmap/grad), unless inputs were
+    checked on the host (:func:`input_checks` ``(False)``): then ``x`` unchanged."""
+    if not _INPUT_CHECKS.get():
+        return x
+    return eqx.error_if(x, failed, message)
 
 
 def as_float(x) -> jax.Array:
@@ -88,14 +126,14 @@ def check_roller_values(radius, load, speed) -> None:
 def roller_inputs(radius, load, speed):
     """Radius ``R`` [m], load ``P`` [N, or N/m for cylinders] and speed ``V`` [m/s] as float64
     scalars, checked once for every method: ``ValueError`` for non-scalars (use ``jax.vmap``
-    for sweeps), and ``eqx.error_if`` (works under jit/vmap/grad) for ``R <= 0``, ``P <= 0``,
-    ``V < 0``, infinities or NaN."""
+    for sweeps), and :func:`check_input` (works under jit/vmap/grad) for ``R <= 0``, ``P <= 0``,
+    ``V < 0``, infinities or NaN (concrete values: :func:`check_roller_values` on the host)."""
     out = []
     for (name, sym, unit, test, rule), x in zip(_ROLLER_RULES, (radius, load, speed)):
         v = as_float(x)
         if v.shape != ():
             raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
-        out.append(eqx.error_if(v, ~test(v), f"{name} {sym} [{unit}] must be {rule}"))
+        out.append(check_input(v, ~test(v), f"{name} {sym} [{unit}] must be {rule}"))
     return tuple(out)
 
 

@@ -811,9 +811,11 @@ def main(argv=None) -> int:
         parser.error(f"map: --tmin ({args.tmin:g} K) must be below --tmax ({args.tmax:g} K)")
     import jax
 
+    import jaxroll as jr
+
     try:
         return args.func(args)
-    except (ValueError, OSError, jax.errors.JaxRuntimeError, eqx.EquinoxRuntimeError) as err:
+    except (ValueError, OSError, jr.SolverError, jax.errors.JaxRuntimeError, eqx.EquinoxRuntimeError) as err:
         if args.debug:
             raise
         if isinstance(err, OSError):  # missing or unreadable input file, unwritable --out

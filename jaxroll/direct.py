@@ -74,7 +74,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, roller_inputs, where_safe
+from ._numerics import as_float, check_input, roller_inputs, where_safe
 from .layer import static_compliance, surface_compliance
 from .material import complex_modulus
 from .pressure import (
@@ -547,7 +547,7 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
         raise ValueError(f"unknown geometry {geometry!r}; choose 'sphere' or 'cylinder'")
     R, P, V = roller_inputs(radius, load, speed)
     H = as_float(layer.H)
-    H = eqx.error_if(H, ~(H > 0), "layer thickness H must be positive (jnp.inf for a half-space)")
+    H = check_input(H, ~(H > 0), "layer thickness H must be positive (jnp.inf for a half-space)")
     layer = eqx.tree_at(lambda l: l.H, layer, H)
 
     models, r_c, gamma, code, valid, weight = select_pressure(

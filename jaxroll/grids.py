@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from pathlib import Path
 
 import equinox as eqx
 import jax
@@ -80,35 +81,125 @@ def _even_cells(L, dx):
 BYTES_PER_MODE = 100
 
 
-def memory_budget() -> int:
-    """The most working memory [bytes] one model evaluation may plan for: the environment
-    variable ``JAXROLL_MEMORY_BUDGET`` (bytes, or with a suffix ``MB``/``GB``), else half of the
-    memory available now (``/proc/meminfo`` ``MemAvailable``; 4 GB where that is unknown)."""
+#: Fraction of the smallest memory headroom that one model evaluation may plan for: the
+#: estimate of :meth:`FixedGrid.memory_estimate` is approximate (XLA's temporaries, the
+#: process's other arrays), so half leaves room for its error.
+MEMORY_FRACTION = 0.5
+
+#: Where the memory limits are read (module attributes, so that tests can point them elsewhere).
+PROC = Path("/proc")
+CGROUP = Path("/sys/fs/cgroup")
+
+#: A cgroup v1 limit at or above this is "no limit" (the kernel writes ~2^63).
+_NO_LIMIT = 2**60
+
+
+def _read_int(path) -> int | None:
+    """The integer in a one-line file, ``None`` if absent, unreadable or ``max``."""
+    try:
+        text = Path(path).read_text().split()[0]
+    except (OSError, IndexError):
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def _available_memory():
+    """``MemAvailable`` of ``/proc/meminfo`` [bytes] (``None`` where unknown)."""
+    try:
+        with open(PROC / "meminfo") as fh:
+            return next(int(line.split()[1]) * 1024 for line in fh if line.startswith("MemAvailable:"))
+    except (OSError, StopIteration, ValueError, IndexError):
+        return None
+
+
+def _address_space_headroom():
+    """The soft address-space limit (``RLIMIT_AS``, ``ulimit -v``) minus this process's virtual
+    size (``VmSize`` of ``/proc/self/status``) [bytes]; ``None`` without a limit."""
+    try:
+        import resource
+    except ImportError:  # not a POSIX system
+        return None
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if soft == resource.RLIM_INFINITY or soft < 0:
+        return None
+    used = 0
+    try:
+        with open(PROC / "self" / "status") as fh:
+            used = next(int(line.split()[1]) * 1024 for line in fh if line.startswith("VmSize:"))
+    except (OSError, StopIteration, ValueError, IndexError):
+        pass
+    return max(soft - used, 0)
+
+
+def _cgroup_headroom():
+    """The cgroup (container) memory limit minus the cgroup's usage [bytes], the smallest over
+    the process's own cgroup (``/proc/self/cgroup``) and the root of the mount; ``None``
+    without a limit. cgroup v2: ``memory.max - memory.current``; v1 (under ``memory/``):
+    ``memory.limit_in_bytes - memory.usage_in_bytes``."""
+    v2, v1 = [CGROUP], [CGROUP / "memory"]
+    try:
+        for line in (PROC / "self" / "cgroup").read_text().splitlines():
+            _, controllers, path = line.split(":", 2)
+            if controllers == "":
+                v2.insert(0, CGROUP / path.strip().lstrip("/"))
+            elif "memory" in controllers.split(","):
+                v1.insert(0, CGROUP / "memory" / path.strip().lstrip("/"))
+    except (OSError, ValueError):
+        pass
+    room = []
+    for d, (limit_file, usage_file) in [(d, ("memory.max", "memory.current")) for d in v2] + [
+            (d, ("memory.limit_in_bytes", "memory.usage_in_bytes")) for d in v1]:
+        limit = _read_int(d / limit_file)
+        if limit is not None and limit < _NO_LIMIT:
+            room.append(max(limit - (_read_int(d / usage_file) or 0), 0))
+    return min(room) if room else None
+
+
+def memory_limit() -> tuple[int, str]:
+    """The working memory [bytes] one model evaluation may plan for, and where it comes from.
+
+    ``JAXROLL_MEMORY_BUDGET`` (bytes, or with a suffix ``MB``/``GB``) if set; else
+    :data:`MEMORY_FRACTION` (half) of the smallest of: the memory available now
+    (``MemAvailable``), the address-space limit left to this process (``RLIMIT_AS`` minus its
+    virtual size) and the cgroup (container) memory limit left (v2 ``memory.max`` minus
+    ``memory.current``, v1 ``memory.limit_in_bytes`` minus ``memory.usage_in_bytes``), taken as
+    8 GiB where none is readable."""
     text = os.environ.get("JAXROLL_MEMORY_BUDGET")
     if text:
         m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([KMGT]?)(i?B)?\s*", text, re.IGNORECASE)
         try:
-            return int(float(m.group(1)) * 1024 ** "_KMGT".index(m.group(2).upper() or "_"))
+            return int(float(m.group(1)) * 1024 ** "_KMGT".index(m.group(2).upper() or "_")), "JAXROLL_MEMORY_BUDGET"
         except (AttributeError, ValueError):
             raise ValueError(f"JAXROLL_MEMORY_BUDGET must be a size in bytes (or 8GB, 500MB); got {text!r}") from None
-    try:
-        with open("/proc/meminfo") as fh:
-            avail = next(int(line.split()[1]) * 1024 for line in fh if line.startswith("MemAvailable:"))
-    except (OSError, StopIteration, ValueError):
-        avail = 8 * 2**30
-    return avail // 2
+    limits = [(_available_memory(), "the available memory (MemAvailable)"),
+              (_address_space_headroom(), "the address-space limit left (RLIMIT_AS, ulimit -v)"),
+              (_cgroup_headroom(), "the cgroup memory limit left (container)")]
+    known = [(b, src) for b, src in limits if b is not None]
+    if not known:
+        return int(MEMORY_FRACTION * 8 * 2**30), "half of 8 GiB (no memory limit readable)"
+    headroom, src = min(known, key=lambda k: k[0])
+    return int(MEMORY_FRACTION * headroom), f"half of {src}, {headroom / 2**30:.1f} GiB"
+
+
+def memory_budget() -> int:
+    """The most working memory [bytes] one model evaluation may plan for (see
+    :func:`memory_limit`, which also names its source)."""
+    return memory_limit()[0]
 
 
 def check_memory(grid: "FixedGrid", ndim: int, what: str) -> None:
-    """``ValueError`` (what was asked, what it needs, what to change) when ``grid`` needs more
-    working memory than :func:`memory_budget` allows."""
-    need, budget = grid.memory_estimate(ndim), memory_budget()
+    """``ValueError``, one line (what was asked, what it needs, the budget and its source, what
+    to change), when ``grid`` needs more working memory than :func:`memory_limit` allows."""
+    need = grid.memory_estimate(ndim)
+    budget, source = memory_limit()
     if need > budget:
+        spacing = "traced" if isinstance(grid.spacing, jax.core.Tracer) else f"{float(grid.spacing):.3g} m"
+        described = f"FixedGrid(spacing={spacing}, window={grid.window}, n_cells={grid.n_cells})"
         raise ValueError(
-            f"{what} on {grid} needs about {need / 2**30:.1f} GiB of working memory, above the budget of "
-            f"{budget / 2**30:.1f} GiB (half of the available memory; set JAXROLL_MEMORY_BUDGET to change it). "
-            f"Use a shorter period (an automatic period grows like 20 x V x the longest retardation time), a "
-            f"smaller n_terms, or a coarser spacing; or the direct method, which needs no grid.")
+            f"{what} on {described} needs about {need / 2**30:.1f} GiB of working memory, above the budget of "
+            f"{budget / 2**30:.1f} GiB ({source}): use a shorter period (an automatic period grows like "
+            f"20 x V x the longest retardation time), a smaller n_terms, a coarser spacing, or the direct method "
+            f"(no grid); or set JAXROLL_MEMORY_BUDGET (e.g. 8GB) if more memory is free.")
 
 
 class FixedGrid(eqx.Module):

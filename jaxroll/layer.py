@@ -49,7 +49,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_x64, to_complex as _c, where_safe
+from ._numerics import as_float, check_input, check_x64, to_complex as _c, where_safe
 from .material import _leaf, _require, complex_modulus, relaxed_modulus
 
 __all__ = [
@@ -98,14 +98,18 @@ class Layer(eqx.Module):
     nu: float = eqx.field(static=True, default=0.5)
 
     def checked(self) -> "Layer":
-        """This layer with ``H`` and ``rho`` checked inside compiled programs (``eqx.error_if``,
-        works under jit/vmap/grad): ``H > 0`` (``+inf``: half-space; ``-inf``, NaN and
-        ``H <= 0`` raise), ``rho >= 0`` and finite."""
-        H = eqx.error_if(self.H, ~(self.H > 0), "H must be a positive thickness in m (or jnp.inf for a half-space)")
+        """This layer with ``H`` and ``rho`` checked: ``H > 0`` (``+inf``: half-space;
+        ``-inf``, NaN and ``H <= 0`` raise), ``rho >= 0`` and finite. Concrete values on the
+        host (``ValueError``, as at construction), traced ones inside compiled programs
+        (:func:`jaxroll._numerics.check_input`: works under jit/vmap/grad)."""
+        if not any(isinstance(v, jax.core.Tracer) for v in (self.H, self.rho)):
+            self.__check_init__()
+            return self
+        H = check_input(self.H, ~(self.H > 0), "H must be a positive thickness in m (or jnp.inf for a half-space)")
         out = eqx.tree_at(lambda l: l.H, self, H)
         if isinstance(self.rho, jax.Array):
-            rho = eqx.error_if(self.rho, ~(jnp.isfinite(self.rho) & (self.rho >= 0)),
-                               "rho must be a finite, non-negative density in kg/m^3")
+            rho = check_input(self.rho, ~(jnp.isfinite(self.rho) & (self.rho >= 0)),
+                              "rho must be a finite, non-negative density in kg/m^3")
             out = eqx.tree_at(lambda l: l.rho, out, rho)
         return out
 

@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, to_complex
+from ._numerics import as_float, check_input, to_complex
 
 __all__ = [
     "AbstractMaterial",
@@ -89,8 +89,8 @@ class AbstractMaterial(eqx.Module):
     probe a material's fields.
 
     Parameter rules: ``_rules`` lists ``(field, test, rule)``; they are checked at construction
-    for concrete values (``ValueError``) and inside compiled programs by :meth:`checked`
-    (``eqx.error_if``: works under jit/vmap/grad), so a traced negative time or modulus raises
+    for concrete values (``ValueError``) and, for traced values, inside compiled programs by
+    :meth:`checked` (``eqx.error_if``: works under jit/vmap/grad), so a traced negative time or modulus raises
     instead of returning a wrong number.
     """
 
@@ -101,8 +101,9 @@ class AbstractMaterial(eqx.Module):
             _require(name, getattr(self, name), test, rule)
 
     def checked(self) -> "AbstractMaterial":
-        """This material with every parameter checked inside compiled programs (non-finite
-        values and values breaking the rules raise :class:`equinox.EquinoxRuntimeError`)."""
+        """This material with every parameter checked: concrete values on the host
+        (``ValueError``), traced ones inside compiled programs (non-finite values and values
+        breaking the rules raise :class:`equinox.EquinoxRuntimeError`)."""
         return _checked(self, self._rules)
 
     @abc.abstractmethod
@@ -127,11 +128,16 @@ class AbstractMaterial(eqx.Module):
 
 
 def _checked(module, rules):
-    """``module`` with ``eqx.error_if`` on each ruled field (finite and ``test``)."""
+    """``module`` with each ruled field checked (finite and ``test``): a concrete value on the
+    host (``ValueError``, as at construction), a traced one inside the compiled program
+    (:func:`jaxroll._numerics.check_input`)."""
     for name, test, rule in rules:
         v = getattr(module, name)
+        if not isinstance(v, jax.core.Tracer):
+            _require(name, v, test, rule)
+            continue
         bad = ~(jnp.isfinite(v) & test(v))
-        module = eqx.tree_at(lambda m, name=name: getattr(m, name), module, eqx.error_if(v, bad, f"{name} must be {rule}"))
+        module = eqx.tree_at(lambda m, name=name: getattr(m, name), module, check_input(v, bad, f"{name} must be {rule}"))
     return module
 
 

@@ -14,8 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["RESULTS", "RollingResult", "REGIMES", "ValidityWarning", "check_validity", "first_failure",
-           "full_model_result", "merge_results", "MAX_CONTACT_RATIO"]
+__all__ = ["RESULTS", "RollingResult", "REGIMES", "SolverError", "ValidityWarning", "check_validity", "first_failure",
+           "full_model_result", "merge_results", "raise_on_failure", "MAX_CONTACT_RATIO"]
 
 #: Largest contact radius (sphere) or half-width (cylinder) over roller radius of a valid
 #: result: every model uses the parabolic profile ``h = r^2/(2R)``, whose error grows like
@@ -97,6 +97,45 @@ RESULTS = _Results([
                           "parabolic roller profile)"),
     ("nonpositive", "non-positive rolling resistance: below the method's resolution (refine the grid)"),
 ])
+
+
+class SolverError(RuntimeError):
+    """A result is not trustworthy (``throw=True``): one line naming the :data:`RESULTS` code
+    and its reason.
+
+    Attributes:
+        code: the integer :data:`RESULTS` code (the first failing point's, for a table).
+        name: its name, e.g. ``"window_too_small"``.
+        reason: its message (what went wrong and what to change).
+        count: number of failing points; ``total``: number of points.
+
+    Raised on the host by the front doors when their inputs are concrete. Under a user's
+    ``jax.jit``/``jax.vmap``/``jax.grad`` the check runs inside the compiled program
+    (``equinox.error_if``) and surfaces as JAX's runtime error; its text contains
+    :meth:`message` of the code.
+    """
+
+    def __init__(self, code, *, count: int = 1, total: int = 1):
+        self.code = int(code)
+        self.name = RESULTS.names[self.code]
+        self.reason = RESULTS.message(self.code)
+        self.count, self.total = int(count), int(total)
+        where = f" at {self.count} of {self.total} points (the first one's reason)" if self.total > 1 else ""
+        super().__init__(f"{self.message(self.code)}{where}")
+
+    @staticmethod
+    def message(code) -> str:
+        """The one-line text of a failure with :data:`RESULTS` code ``code``."""
+        return f"rolling resistance not trustworthy [RESULTS.{RESULTS.names[int(code)]}]: {RESULTS.message(code)}"
+
+
+def raise_on_failure(result) -> None:
+    """Raise :class:`SolverError` if any entry of the concrete :data:`RESULTS` code array
+    ``result`` is not ``successful`` (host side: no callback in the compiled program)."""
+    codes = np.asarray(result).ravel()
+    bad = np.flatnonzero(codes != RESULTS.successful)
+    if bad.size:
+        raise SolverError(codes[bad[0]], count=bad.size, total=codes.size)
 
 
 class RollingResult(eqx.Module):

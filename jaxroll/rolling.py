@@ -7,6 +7,14 @@ and layer parameters, radius, loads, speeds, and the grid's cell size and period
 values of the compiled program. So a second call with new values compiles nothing, and under
 ``jax.jit``, ``jax.vmap`` and ``jax.grad`` the numbers are those of an eager call with the same
 (resolved) method.
+
+Checks and failures: with concrete inputs (an ordinary call) the input rules are checked on the
+host before anything is compiled (``ValueError``), the compiled program carries the
+:data:`~jaxroll.RESULTS` code of each point in ``result``, and ``throw=True`` raises
+:class:`~jaxroll.SolverError` on the host. So the compiled programs hold no host callbacks and
+JAX's persistent compilation cache can keep them across processes. With traced inputs (under a
+user's ``jax.jit``, ``jax.vmap``, ``jax.grad``) the same checks run inside the program
+(``equinox.error_if``) and surface as JAX's runtime error, whose text contains the reason.
 """
 
 from __future__ import annotations
@@ -18,12 +26,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_roller_values, roller_inputs
+from ._numerics import as_float, check_roller_values, input_checks, roller_inputs
 from .layer import Layer
 from .material import AbstractMaterial
 from .contact_size import check_geometry, estimate_contact_size
 from .methods import AbstractMethod, Full, Slices, as_method
-from .result import RESULTS, RollingResult, ValidityWarning, check_validity
+from .result import RESULTS, RollingResult, SolverError, ValidityWarning, check_validity, raise_on_failure
 
 __all__ = ["rolling_resistance", "rolling_resistance_grid", "DEFAULT_METHODS", "ValidityWarning"]
 
@@ -57,22 +65,29 @@ def _check_models(material, layer):
 
 
 def _prepare(method, material, layer, radius, loads, speeds, geometry):
+    """The method to run (resolved and memory-checked), after the host checks of every concrete
+    input; and whether the inputs are traced (then the checks go into the program)."""
     check_geometry(geometry)
     method = as_method(DEFAULT_METHODS[geometry] if method is None else method)
     _check_models(material, layer)
     check_roller_values(radius, loads, speeds)
+    traced = _traced(material, layer, radius, loads, speeds)
+    if not traced:  # concrete values: the rules of jr.Layer and the material, on the host
+        material.checked(), layer.checked()
     method.check_geometry(geometry)
     if method.needs_resolution(geometry):
-        if _traced(material, layer, radius, loads, speeds):
+        if traced:
             raise ValueError(_AUTOGRID_TRACED.format(method=type(method).__name__))
         method = method.resolve(material, layer, radius=radius, loads=loads, speeds=speeds, geometry=geometry)
     method.check_memory(geometry)
-    return method
+    return method, traced
 
 
-def _raise_on_failure(res: RollingResult) -> RollingResult:
+def _raise_in_program(res: RollingResult) -> RollingResult:
+    """``res`` with a check inside the compiled program that raises the one-line
+    :meth:`SolverError.message` of the first failure (traced inputs only: a host callback)."""
     value = eqx.branched_error_if(res.value, res.result != RESULTS.successful, res.result,
-                                  [f"rolling resistance not trustworthy: {m}" for m in RESULTS.messages()])
+                                  [SolverError.message(c) for c in RESULTS])
     return eqx.tree_at(lambda r: r.value, res, value)
 
 
@@ -98,22 +113,40 @@ def _validated(method, material, layer, res, R, P, V, geometry):
 
 
 @eqx.filter_jit
-def _point(method, material, layer, radius, load, speed, geometry, throw):
-    R, P, V = roller_inputs(radius, load, speed)
-    material, layer = material.checked(), layer.checked()
-    res = _validated(method, material, layer, method.evaluate(material, layer, R, P, V, geometry), R, P, V, geometry)
-    return _raise_on_failure(res) if throw else res
+def _point(method, material, layer, radius, load, speed, geometry, traced):
+    """One point; ``traced`` (static): the inputs are traced, so the input checks and the
+    failure check of ``throw=True`` go into the program."""
+    with input_checks(traced):
+        R, P, V = roller_inputs(radius, load, speed)
+        material, layer = material.checked(), layer.checked()
+        res = method.evaluate(material, layer, R, P, V, geometry)
+        res = _validated(method, material, layer, res, R, P, V, geometry)
+    return res
 
 
 @eqx.filter_jit
-def _grid(method, material, layer, radius, loads, speeds, geometry, throw):
-    R = roller_inputs(radius, 1.0, 0.0)[0]
-    material, layer = material.checked(), layer.checked()
-    loads = jax.vmap(lambda P: roller_inputs(1.0, P, 0.0)[1])(loads)
-    speeds = jax.vmap(lambda V: roller_inputs(1.0, 1.0, V)[2])(speeds)
-    res = method.evaluate_grid(material, layer, R, loads, speeds, geometry)
-    res = _validated(method, material, layer, res, R, loads, speeds[:, None], geometry)
-    return _raise_on_failure(res) if throw else res
+def _grid(method, material, layer, radius, loads, speeds, geometry, traced):
+    """The ``speeds x loads`` table; ``traced`` as in :func:`_point`."""
+    with input_checks(traced):
+        R = roller_inputs(radius, 1.0, 0.0)[0]
+        material, layer = material.checked(), layer.checked()
+        loads = jax.vmap(lambda P: roller_inputs(1.0, P, 0.0)[1])(loads)
+        speeds = jax.vmap(lambda V: roller_inputs(1.0, 1.0, V)[2])(speeds)
+        res = method.evaluate_grid(material, layer, R, loads, speeds, geometry)
+        res = _validated(method, material, layer, res, R, loads, speeds[:, None], geometry)
+    return res
+
+
+def _finish(res: RollingResult, throw: bool, where: str) -> RollingResult:
+    """``throw``: raise on a failure (on the host when the result is concrete, inside the
+    program when the call is part of a user's trace); otherwise an eager call warns."""
+    if throw:
+        if isinstance(res.result, jax.core.Tracer):
+            return _raise_in_program(res)
+        raise_on_failure(res.result)
+    else:
+        _warn_if_invalid(res, where)
+    return res
 
 
 def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere", method=None,
@@ -133,7 +166,9 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
             ``"SP"``; default ``DEFAULT_METHODS[geometry]`` (SP slices for spheres, the full 2D model for cylinders). Under ``jit``/``vmap``/``grad`` a method
             with a grid must be resolved first (``method.resolve(...)``).
         throw: raise if the result is not trustworthy (``result != RESULTS.successful``: a
-            solver failure or a validity check; the message names the reason). With
+            solver failure or a validity check): :class:`jaxroll.SolverError`, one line with
+            the code's name and reason (under a user's ``jax.jit``/``vmap``/``grad``, JAX's
+            runtime error, whose text contains that line). With
             ``throw=False`` the reason is returned in ``result`` (use it under ``vmap``), and an
             eager call warns (:class:`jaxroll.ValidityWarning`).
 
@@ -144,12 +179,10 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
     Works under ``jax.jit``, ``jax.vmap`` (scalar ``radius``, ``load``, ``speed`` per call) and
     ``jax.grad`` with respect to the material and layer parameters, ``R``, ``P`` and ``V``.
     """
-    method = _prepare(method, material, layer, radius, load, speed, geometry)
+    method, traced = _prepare(method, material, layer, radius, load, speed, geometry)
     radius, load, speed = as_float(radius), as_float(load), as_float(speed)
-    res = _point(method.dynamic(), material, layer, radius, load, speed, geometry, bool(throw))
-    if not throw:
-        _warn_if_invalid(res, "rolling_resistance")
-    return res
+    res = _point(method.dynamic(), material, layer, radius, load, speed, geometry, traced)
+    return _finish(res, bool(throw), "rolling_resistance")
 
 
 def rolling_resistance_grid(material, layer, *, radius, loads, speeds, geometry="sphere", method=None,
@@ -170,8 +203,6 @@ def rolling_resistance_grid(material, layer, *, radius, loads, speeds, geometry=
     loads, speeds = as_float(loads), as_float(speeds)
     if loads.ndim != 1 or speeds.ndim != 1 or loads.size == 0 or speeds.size == 0:
         raise ValueError(f"loads and speeds must be non-empty 1D arrays; got shapes {loads.shape} and {speeds.shape}")
-    method = _prepare(method, material, layer, radius, loads, speeds, geometry)
-    res = _grid(method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry, bool(throw))
-    if not throw:
-        _warn_if_invalid(res, "rolling_resistance_grid")
-    return res
+    method, traced = _prepare(method, material, layer, radius, loads, speeds, geometry)
+    res = _grid(method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry, traced)
+    return _finish(res, bool(throw), "rolling_resistance_grid")

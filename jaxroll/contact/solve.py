@@ -43,6 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._numerics import check_input
 from ..result import RESULTS, first_failure
 from .active_set import find_contact_set
 from .linear import GMRES, AbstractLinearSolver, Dense, check_linear_solver
@@ -222,8 +223,10 @@ def solve_contact(
     initial_contact, warm = _start(h, value, penetration_mode, initial_contact, warm_start)
     solver = check_linear_solver(linear_solver, (GMRES, Dense)).resolve(h.ndim)
     if smoothing is not None:
-        smoothing = eqx.error_if(jnp.asarray(smoothing, dtype=float), ~(jnp.asarray(smoothing) > 0),
-                                 "smoothing must be a positive gap scale [m] (or None)")
+        smoothing = check_input(jnp.asarray(smoothing, dtype=float), ~(jnp.asarray(smoothing) > 0),
+                                "smoothing must be a positive gap scale [m] (or None)")
+    if not penetration_mode:
+        value = check_input(value, ~(value > 0), "the load must be positive")
     return _solve_contact(compliance, h, value, None if penetration_mode else jnp.asarray(cell_area, dtype=float),
                           initial_contact, warm, smoothing, penetration_mode=penetration_mode, tol=tol,
                           max_steps=max_steps, solver=solver)
@@ -251,8 +254,6 @@ def _start(h, value, penetration_mode, initial_contact, warm_start):
 def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, warm, smoothing, *,
                    penetration_mode: bool, tol: float, max_steps: int,
                    solver: AbstractLinearSolver) -> ContactSolution:
-    if not penetration_mode:
-        value = eqx.error_if(value, ~(value > 0), "the load must be positive")
     system = ContactSystem.build(compliance, h, value, cell_area, mask0, penetration_mode)
     fixed = system.stopped()
     precond = CirculantPreconditioner.build(compliance, fixed) if solver.preconditioned else None

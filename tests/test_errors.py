@@ -1,0 +1,212 @@
+"""Failures, first calls and memory limits: the one-line :class:`jaxroll.SolverError` of
+``throw=True``, compiled programs free of host callbacks (so that JAX's persistent compilation
+cache can keep them), the cache's switch and directory, and the memory budget read from the
+process's real limits (address space, cgroup)."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import pytest
+
+import jaxroll as jr
+from jaxroll import _compilation_cache, grids
+from jaxroll.cli import _runtime_message
+
+SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
+THIN = jr.Layer(0.005)  # at 150 N, R = 2 cm: gamma > 0.9, outside Jaffar's thick-layer model
+R = 0.02
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _direct(load, **kw):
+    return jr.rolling_resistance(SLS, THIN, radius=R, load=load, speed=0.01, method="direct", **kw)
+
+
+# ------------------------------------------------------------------ one-line failures
+
+
+def test_throw_raises_a_solver_error_with_the_code_in_one_line():
+    code = jr.RESULTS.outside_pressure_model
+    with pytest.warns(jr.ValidityWarning):
+        assert int(_direct(150.0, throw=False).result) == code  # the code the result carries
+    with pytest.raises(jr.SolverError) as exc:
+        _direct(150.0)
+    err = exc.value
+    assert isinstance(err, RuntimeError)
+    assert (err.code, err.name, err.reason) == (code, "outside_pressure_model", jr.RESULTS.message(code))
+    text = str(err)
+    assert "\n" not in text and text.startswith("rolling resistance not trustworthy [RESULTS.outside_pressure_model]")
+    assert text.endswith(jr.RESULTS.message(code))
+    # a table: the first failing point's code, and the count
+    with pytest.raises(jr.SolverError, match=r"at 1 of 2 points") as exc:
+        jr.rolling_resistance_grid(SLS, THIN, radius=R, loads=[20.0, 150.0], speeds=[0.01], method="direct",
+                                   throw=True)
+    assert exc.value.code == code and (exc.value.count, exc.value.total) == (1, 2)
+
+
+def test_under_jit_the_failure_carries_the_same_line():
+    # a traced load: the check runs inside the program (a host callback) and surfaces as
+    # JAX's runtime error, whose text holds the SolverError line
+    code = jr.RESULTS.outside_pressure_model
+    with pytest.raises(jax.errors.JaxRuntimeError) as exc:
+        jax.block_until_ready(jax.jit(lambda P: _direct(P).value)(150.0))
+    assert _runtime_message(exc.value) == jr.SolverError.message(code)
+
+
+def test_front_door_programs_hold_no_host_callbacks_for_concrete_inputs():
+    def hlo(fn, *args):
+        return jax.jit(fn).lower(*args).as_text()
+
+    # concrete inputs: checked on the host, the program only computes (cacheable)
+    assert "callback" not in hlo(lambda: _direct(20.0, throw=False).value)
+    # a traced input: its rules are checked inside the program
+    assert "callback" in hlo(lambda P: _direct(P, throw=False).value, 20.0)
+    # the contact solver's program too (a coarse cylinder grid: 24 cells in the window)
+    full, half = jr.Full(grid=jr.FixedGrid(2e-4, 24)), jr.Layer(jnp.inf)  # (built inside jit, H would be traced)
+    cylinder = lambda P: jr.rolling_resistance(SLS, half, radius=R, load=P, speed=0.01,  # noqa: E731
+                                               geometry="cylinder", method=full, throw=False).value
+    assert "callback" not in hlo(lambda: cylinder(1e4))
+    assert "callback" in hlo(cylinder, 1e4)
+
+
+def test_concrete_inputs_are_checked_on_the_host():
+    # tree_at skips the constructor's checks; the front door checks the values again
+    bad = eqx.tree_at(lambda m: m.G0, SLS, jnp.asarray(-3e6))
+    with pytest.raises(ValueError, match=r"G0 must be a positive, finite shear modulus in Pa; got -3e\+06"):
+        jr.rolling_resistance(bad, THIN, radius=R, load=20.0, speed=0.01, method="direct")
+    flat = eqx.tree_at(lambda l: l.H, THIN, jnp.asarray(-1.0))
+    with pytest.raises(ValueError, match="H must be a positive thickness"):
+        jr.rolling_resistance(SLS, flat, radius=R, load=20.0, speed=0.01, method="direct")
+
+
+# ------------------------------------------------------------------ compilation cache
+
+
+def test_cache_directory_follows_the_environment(tmp_path):
+    home, tag = Path("~/.cache").expanduser(), _compilation_cache.processor_tag()
+    assert tag == _compilation_cache.processor_tag() and "/" not in tag  # one subdirectory per processor type
+    assert _compilation_cache.cache_directory({}) == home / "jaxroll" / "jax" / tag
+    assert _compilation_cache.cache_directory({"XDG_CACHE_HOME": str(tmp_path)}) == tmp_path / "jaxroll" / "jax" / tag
+    for off in ("0", "off", "False", "no"):
+        assert _compilation_cache.cache_directory({"JAXROLL_COMPILATION_CACHE": off}) is None
+    assert _compilation_cache.cache_directory({"JAXROLL_COMPILATION_CACHE": "1"}) == home / "jaxroll" / "jax" / tag
+    assert _compilation_cache.cache_directory({"JAXROLL_COMPILATION_CACHE": str(tmp_path / "c")}) == tmp_path / "c" / tag
+
+
+_PROBE = textwrap.dedent("""
+    import json, sys
+    import jax
+    import jaxroll as jr
+    events = []
+    jax.monitoring.register_event_listener(lambda name, **kw: events.append(name))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)  # store even a tiny program
+    mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
+    jax.block_until_ready(jax.jit(lambda w: jr.storage_modulus(mat, w))(jax.numpy.linspace(1.0, 2.0, 7)))
+    print(json.dumps({"dir": jax.config.jax_compilation_cache_dir,
+                      "hits": events.count("/jax/compilation_cache/cache_hits")}))
+""")
+
+
+def _probe(env):
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COMPILATION", "JAXROLL_"))} | env
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    out = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_switched_off_cache_writes_nothing_and_a_jax_setting_wins(tmp_path):
+    got = _probe({"XDG_CACHE_HOME": str(tmp_path), "JAXROLL_COMPILATION_CACHE": "0"})
+    assert got["dir"] is None and not (tmp_path / "jaxroll").exists()
+    mine = tmp_path / "mine"
+    got = _probe({"XDG_CACHE_HOME": str(tmp_path), "JAX_COMPILATION_CACHE_DIR": str(mine)})
+    assert got["dir"] == str(mine) and not (tmp_path / "jaxroll").exists()
+
+
+def test_second_process_loads_the_compiled_program_from_the_cache(tmp_path):
+    cache = tmp_path / "cache"
+    first = _probe({"JAXROLL_COMPILATION_CACHE": str(cache)})
+    files = sorted(p.name for p in cache.rglob("*") if p.is_file())
+    assert Path(first["dir"]).parent == cache and files
+    second = _probe({"JAXROLL_COMPILATION_CACHE": str(cache)})
+    assert second["hits"] > first["hits"]  # (the first may hit too: one program compiled twice)
+    assert sorted(p.name for p in cache.rglob("*") if p.is_file()) == files  # nothing compiled anew
+
+
+# ------------------------------------------------------------------ memory budget
+
+GiB = 2**30
+
+
+@pytest.fixture
+def limits(tmp_path, monkeypatch):
+    """A fake /proc and /sys/fs/cgroup (16 GiB available, no limit) and no RLIMIT_AS; tests
+    write the limits they need into ``limits.proc`` / ``limits.cgroup`` / ``limits.rlimit``."""
+    import resource
+
+    proc, cgroup = tmp_path / "proc", tmp_path / "cgroup"
+    (proc / "self").mkdir(parents=True)
+    cgroup.mkdir()
+    (proc / "meminfo").write_text(f"MemTotal: {32 * GiB // 1024} kB\nMemAvailable: {16 * GiB // 1024} kB\n")
+    (proc / "self" / "status").write_text(f"Name: python\nVmSize: {GiB // 1024} kB\n")
+    (proc / "self" / "cgroup").write_text("4:memory:/box\n0::/box\n")
+    monkeypatch.setattr(grids, "PROC", proc)
+    monkeypatch.setattr(grids, "CGROUP", cgroup)
+    monkeypatch.delenv("JAXROLL_MEMORY_BUDGET", raising=False)
+    state = type("Limits", (), {"proc": proc, "cgroup": cgroup, "rlimit": resource.RLIM_INFINITY})()
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (state.rlimit, resource.RLIM_INFINITY))
+    return state
+
+
+def _write(path, text):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
+def test_budget_is_half_the_available_memory_without_limits(limits):
+    budget, source = grids.memory_limit()
+    assert budget == 8 * GiB and "available memory" in source
+    assert jr.memory_budget() == budget
+
+
+def test_budget_honours_the_cgroup_v2_limit(limits):
+    _write(limits.cgroup / "box" / "memory.max", f"{6 * GiB}\n")
+    _write(limits.cgroup / "box" / "memory.current", f"{GiB}\n")
+    assert grids.memory_limit() == (int(2.5 * GiB), "half of the cgroup memory limit left (container), 5.0 GiB")
+    _write(limits.cgroup / "box" / "memory.max", "max\n")  # no limit: back to the available memory
+    assert grids.memory_limit()[0] == 8 * GiB
+
+
+def test_budget_honours_the_cgroup_v1_limit(limits):
+    _write(limits.cgroup / "memory" / "memory.limit_in_bytes", f"{4 * GiB}\n")
+    _write(limits.cgroup / "memory" / "memory.usage_in_bytes", f"{GiB}\n")
+    assert grids.memory_limit()[0] == int(1.5 * GiB)
+    _write(limits.cgroup / "memory" / "memory.limit_in_bytes", "9223372036854771712\n")  # the kernel's "none"
+    assert grids.memory_limit()[0] == 8 * GiB
+
+
+def test_budget_honours_the_address_space_limit(limits):
+    limits.rlimit = 3 * GiB  # VmSize is 1 GiB: 2 GiB left
+    budget, source = grids.memory_limit()
+    assert budget == GiB and "RLIMIT_AS" in source
+
+
+def test_memory_error_is_one_line_with_estimate_budget_and_source(limits):
+    _write(limits.cgroup / "box" / "memory.max", f"{6 * 10**9}\n")  # a 6 GB container
+    _write(limits.cgroup / "box" / "memory.current", "0\n")
+    big = jr.Full(grid=jr.FixedGrid(1e-4, 55, period=0.4))
+    need = big.grid.memory_estimate(2)
+    assert need > 3e9  # above half of the container's limit, below the available memory
+    with pytest.raises(ValueError) as exc:
+        big.check_memory("sphere")
+    text = str(exc.value)
+    assert "\n" not in text
+    assert f"needs about {need / GiB:.1f} GiB" in text and f"budget of {3e9 / GiB:.1f} GiB" in text
+    assert "cgroup memory limit" in text and "JAXROLL_MEMORY_BUDGET" in text
