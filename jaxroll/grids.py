@@ -275,7 +275,16 @@ class FixedGrid(eqx.Module):
         """Working memory [bytes] of one model evaluation on this grid (``ndim = 2``: the 3D
         periodic kernel; 1: a plane-strain line), before anything is allocated. Calibrated on
         jax 0.9.2 CPU (peak resident memory above the process baseline, the compiled program's
-        temporary buffers): ~100 B per 3D Fourier mode and 64 B per period cell."""
+        temporary buffers): ~100 B per 3D Fourier mode and 64 B per period cell, plus the contact
+        solver's Krylov basis (``restart + 1`` window vectors of the largest basis its default GMRES
+        builds, twice for the adjoint solve)."""
+        from .contact.linear import FALLBACK_RESTART, RESTART_PLAIN, RESTART_PRECONDITIONED
+
+        restart = max(RESTART_PRECONDITIONED, FALLBACK_RESTART) if ndim == 2 else RESTART_PLAIN
+        return self._kernel_memory(ndim) + 16 * (restart + 1) * self.window ** ndim
+
+    def _kernel_memory(self, ndim) -> int:
+        """The compliance kernel's share of :meth:`memory_estimate` [bytes]."""
         if self.period is None:
             # the quadrature nodes of jaxroll.aperiodic; in 3D the y-integrals (two W-column
             # tables per x node) and one chunk of the node tensor

@@ -31,10 +31,18 @@ from .._numerics import gmres
 __all__ = ["AbstractLinearSolver", "GMRES", "Dense"]
 
 #: Default Krylov basis sizes of :class:`GMRES`: with the preconditioner (2D windows: its solves
-#: converge in ~10-20 iterations, and every Arnoldi step orthogonalises against the whole basis,
+#: converge in ~10-40 iterations, and every Arnoldi step orthogonalises against the whole basis,
 #: so a short basis is cheaper) and without.
 RESTART_PRECONDITIONED = 12
 RESTART_PLAIN = 80
+#: Basis size of the fallback solve (:class:`GMRES` ``fallback_restart``). Restarting loses the
+#: Krylov space: at 24-32 cells per contact radius the preconditioned sphere solves need ~30-60
+#: iterations, and GMRES(12) and GMRES(24) stagnated there (relative residual 1e-2..1e-4 after
+#: 1600 iterations), which made the active set cycle; GMRES(96) reached 1e-13 in one cycle.
+FALLBACK_RESTART = 96
+#: Restart cycles of the first solve before it hands over to the fallback (a solve at the paper's
+#: resolution takes 3-4 cycles of 12).
+FIRST_SOLVE_CYCLES = 16
 #: Default bound on the Krylov iterations of one solve (restarts = this // restart).
 MAX_KRYLOV_ITERATIONS = 1600
 
@@ -70,7 +78,13 @@ class GMRES(AbstractLinearSolver):
     Attributes:
         restart: Krylov basis size (default :data:`RESTART_PRECONDITIONED` with the
             preconditioner, :data:`RESTART_PLAIN` without).
-        max_restarts: restart cycles per solve (default ``MAX_KRYLOV_ITERATIONS // restart``).
+        max_restarts: restart cycles per solve (default ``MAX_KRYLOV_ITERATIONS // restart``; with a
+            fallback, :data:`FIRST_SOLVE_CYCLES` before it takes over).
+        fallback_restart: basis size of a second solve, from where the first stopped, run only
+            when the first missed the tolerance (default :data:`FALLBACK_RESTART` with the
+            preconditioner, none without; ``0``: none). It costs nothing where the first solve
+            converges, and makes the solves robust at fine resolution where a short basis
+            stagnates.
         preconditioner: right-precondition with the circulant approximation of the compliance on
             the contact set (:mod:`jaxroll.contact.precondition`). Default ``None``: on for 2D
             windows (the 3D sphere: 4-5x fewer operator applications), off in 1D (the default
@@ -82,18 +96,23 @@ class GMRES(AbstractLinearSolver):
     restart: int | None = eqx.field(static=True, default=None)
     max_restarts: int | None = eqx.field(static=True, default=None)
     preconditioner: bool | None = eqx.field(static=True, default=None)
+    fallback_restart: int | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         for name in ("restart", "max_restarts"):
             v = getattr(self, name)
             if v is not None and (not isinstance(v, int) or v < 1):
                 raise ValueError(f"GMRES {name} must be a positive integer or None; got {v!r}")
+        v = self.fallback_restart
+        if v is not None and (not isinstance(v, int) or v < 0):
+            raise ValueError(f"GMRES fallback_restart must be a non-negative integer or None; got {v!r}")
 
     def resolve(self, ndim: int) -> "GMRES":
         pre = (ndim == 2) if self.preconditioner is None else bool(self.preconditioner)
         restart = self.restart or (RESTART_PRECONDITIONED if pre else RESTART_PLAIN)
-        return GMRES(restart=restart, max_restarts=self.max_restarts or MAX_KRYLOV_ITERATIONS // restart,
-                     preconditioner=pre)
+        fallback = self.fallback_restart if self.fallback_restart is not None else (FALLBACK_RESTART if pre else 0)
+        cycles = self.max_restarts or (FIRST_SOLVE_CYCLES if fallback else MAX_KRYLOV_ITERATIONS // restart)
+        return GMRES(restart=restart, max_restarts=cycles, preconditioner=pre, fallback_restart=fallback)
 
     @property
     def preconditioned(self) -> bool:
@@ -102,8 +121,19 @@ class GMRES(AbstractLinearSolver):
     def solve(self, matvec, b, x0, precond, rtol):
         # right preconditioning: the stopping test is on the true residual |b - A x| <= rtol |b|
         x0 = jnp.zeros_like(b) if x0 is None else x0
-        x, _ = gmres(matvec, b, x0, atol=rtol * jnp.linalg.norm(b), precond=precond if self.preconditioned else None,
-                     restart=self.restart, maxiter=self.max_restarts)
+        atol = rtol * jnp.linalg.norm(b)
+        precond = precond if self.preconditioned else None
+        x, res = gmres(matvec, b, x0, atol=atol, precond=precond, restart=self.restart, maxiter=self.max_restarts)
+        if not self.fallback_restart:
+            return x
+
+        def fallback(c):  # at most one pass (a while loop, so that it costs nothing when not taken)
+            x, _, _ = c
+            x, res = gmres(matvec, b, x, atol=atol, precond=precond, restart=self.fallback_restart,
+                           maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart))
+            return x, res, jnp.asarray(True)
+
+        x, _, _ = jax.lax.while_loop(lambda c: (c[1] > atol) & ~c[2], fallback, (x, res, jnp.asarray(False)))
         return x
 
 
