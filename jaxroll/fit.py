@@ -20,7 +20,6 @@ interval ``exp(log p +- 1.96 sqrt(cov_ii))`` (asymmetric, positive).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
 import time
@@ -33,6 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import as_float
+from .io import UNITS, Column, DataWarning, read_table
 from .material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
 
 __all__ = [
@@ -56,10 +56,6 @@ class IdentifiabilityWarning(UserWarning):
 class MisfitWarning(UserWarning):
     """With measured sigma, the residuals are far larger than the errors: model error (or sigma
     too small)."""
-
-
-class DataWarning(UserWarning):
-    """A data file has columns that are not used, or repeated points."""
 
 
 # ----------------------------------------------------------------------------------------
@@ -118,91 +114,24 @@ def _check_array(name, x, positive):
         raise ValueError(f"{name}: entry {i} is {x[i]!r}; values must be finite" + (" and positive" if positive else ""))
 
 
-_UNITS = {
-    "speed": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
-    "load": {"N": 1.0, "kN": 1e3, "N/m": 1.0, "kN/m": 1e3},
-    "rolling_resistance": {"N": 1.0, "mN": 1e-3, "N/m": 1.0, "mN/m": 1e-3},
-    "sigma": {"N": 1.0, "mN": 1e-3, "N/m": 1.0, "mN/m": 1e-3},
-    "frequency": {"Hz": 2 * math.pi, "rad/s": 1.0},
-    "storage_modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9},
-    "loss_modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9},
-    "temperature": {"K": None, "degC": None, "C": None, "°C": None},
-}
-_POSITIVE = {"speed", "load", "rolling_resistance", "sigma", "frequency", "storage_modulus", "loss_modulus"}
+def _rolling_columns():
+    force = {**UNITS["force"], **UNITS["line_force"]}
+    return [Column("speed", UNITS["speed"], positive=True), Column("load", force, positive=True),
+            Column("rolling_resistance", force, positive=True), Column("sigma", force, required=False, positive=True)]
 
 
-def _read_table(path, required, optional, kind):
-    """Read a CSV with a header row of names and a row of units (the common DMA convention).
-    Blank lines and lines starting with ``#`` (comments, e.g. how the data were made) are
-    skipped. Returns {column: SI numpy array}. Errors name the file line."""
-    path = Path(path)
-    with open(path, newline="", encoding="utf-8-sig") as fh:  # utf-8-sig: spreadsheets write a BOM
-        rows = [(i + 1, r) for i, r in enumerate(csv.reader(fh))
-                if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
-    if len(rows) < 3:
-        raise ValueError(f"{path}: a {kind} CSV needs a header row of names, a row of units and data rows")
-    (hline, header), (uline, units) = rows[0], rows[1]
-    header = [h.strip() for h in header]
-    units = [u.strip() for u in units]
-    missing = [c for c in required if c not in header]
-    if missing:
-        raise ValueError(f"{path}, line {hline}: missing column(s) {missing}; the header has {header}")
-    repeated = sorted({h for h in header if header.count(h) > 1})
-    if repeated:
-        raise ValueError(f"{path}, line {hline}: column name(s) {repeated} appear more than once")
-    unknown = [h for h in header if h not in required and h not in optional]
-    if unknown:
-        warnings.warn(f"{path}: column(s) {unknown} not used (a {kind} CSV has {required}, optional {optional}); "
-                      f"check the spelling", DataWarning, stacklevel=3)
-    if len(units) != len(header):
-        raise ValueError(f"{path}, line {uline}: the units row has {len(units)} entries for {len(header)} columns")
-    for line, r in rows[2:]:
-        if len(r) > len(header) and any(c.strip() for c in r[len(header):]):
-            raise ValueError(f"{path}, line {line}: {len(r)} cells for {len(header)} columns (extra values after "
-                             f"{header[-1]!r})")
-    out = {}
-    for col in required + [c for c in optional if c in header]:
-        j = header.index(col)
-        unit = units[j]
-        allowed = _UNITS[col]
-        if unit not in allowed:
-            try:
-                float(unit)
-                hint = " (is the units row missing?)"
-            except ValueError:
-                hint = ""
-            raise ValueError(
-                f"{path}, line {uline}: unit {unit!r} of column {col!r} not understood{hint}; expected one of {sorted(allowed)}"
-            )
-        vals = []
-        for line, r in rows[2:]:
-            if j >= len(r):
-                raise ValueError(f"{path}, line {line}: missing value in column {col!r}")
-            text = r[j].strip()
-            try:
-                v = float(text)
-            except ValueError:
-                raise ValueError(f"{path}, line {line}: {col} = {text!r} is not a number") from None
-            if not math.isfinite(v):
-                raise ValueError(f"{path}, line {line}: {col} is {text!r}; values must be finite")
-            if col == "temperature":
-                v = v + 273.15 if unit in ("degC", "C", "°C") else v
-                if v <= 0:
-                    raise ValueError(f"{path}, line {line}: temperature {text} {unit} is below absolute zero")
-            else:
-                if col in _POSITIVE and v <= 0:
-                    raise ValueError(f"{path}, line {line}: {col} must be positive, got {text} {unit}")
-                v = v * allowed[unit]
-            vals.append(v)
-        out[col] = np.asarray(vals)
-    return out
+def _dma_columns():
+    return [Column("frequency", UNITS["frequency"], positive=True),
+            Column("storage_modulus", UNITS["modulus"], positive=True),
+            Column("loss_modulus", UNITS["modulus"], positive=True),
+            Column("temperature", UNITS["temperature"], required=False, positive=True)]
 
 
 def read_rolling_csv(path) -> RollingData:
     """Read rolling-resistance data: columns ``speed``, ``load``, ``rolling_resistance``
     (optional ``sigma``); second row units (``m/s``/``mm/s``/``km/h``; ``N``/``kN``/``N/m``;
     ``N``/``mN``...)."""
-    t = _read_table(path, ["speed", "load", "rolling_resistance"], ["sigma"], "rolling-resistance")
+    t = read_table(path, _rolling_columns(), kind="rolling-resistance")
     _warn_repeated(path, np.stack([t["speed"], t["load"]], axis=1), "(speed, load)")
     return RollingData(t["speed"], t["load"], t["rolling_resistance"], t.get("sigma"))
 
@@ -220,7 +149,7 @@ def read_dma_csv(path) -> DMAData:
     """Read DMA data: columns ``frequency`` (``Hz`` or ``rad/s``), ``storage_modulus`` and
     ``loss_modulus`` (``Pa``/``kPa``/``MPa``/``GPa``), optional ``temperature`` (``K`` or
     ``degC``); second row units."""
-    t = _read_table(path, ["frequency", "storage_modulus", "loss_modulus"], ["temperature"], "DMA")
+    t = read_table(path, _dma_columns(), kind="DMA")
     keys = [t["frequency"]] + ([t["temperature"]] if "temperature" in t else [])
     _warn_repeated(path, np.stack(keys, axis=1), "(frequency, temperature)" if len(keys) > 1 else "frequency")
     return DMAData(t["frequency"], t["storage_modulus"], t["loss_modulus"], t.get("temperature"))
