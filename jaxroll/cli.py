@@ -192,16 +192,13 @@ def _fit(args) -> int:
         except ValueError:
             raise ValueError(f"--wlf: expected three numbers C1,C2,T_ref, got {args.wlf!r}") from None
         shift = jr.WLF(C1=c1, C2=c2, T_ref=tref)
-    kw = {}
-    if data is not None:
-        kw = dict(speeds=data.speed, loads=data.load, measured=data.value, sigma=data.sigma)
     method = _method_from_args(args, fit=True)
     if data is not None and method.needs_resolution(args.geometry):
         raise ValueError(f"--method {_method_name(args, fit=True)} computes on a grid, which a fit must keep fixed while the material "
                          f"varies: give --spacing and --window (and --period), e.g. --spacing 2.5e-4 --window 55 "
                          f"--period 0.2")
-    fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
-                            geometry=args.geometry, method=method, free=free, dma=dma, shift=shift,
+    fit = jfit.fit_material(data, dma, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
+                            geometry=args.geometry, method=method, free=free, shift=shift,
                             n_starts=args.starts, seed=args.seed, solver=args.solver,
                             progress=args.progress or (args.progress is None and _method_name(args, fit=True) != "direct"))
     report = fit.report()
@@ -612,7 +609,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(add C1,C2 to --free to fit them)")
     f.add_argument("--starts", type=_count("--starts"), default=5, help="number of starts spread over two decades (5)")
     f.add_argument("--seed", type=int, default=0)
-    f.add_argument("--solver", choices=["lm", "lbfgs"], default="lm")
+    f.add_argument("--solver", choices=["trf", "lm"], default="trf",
+                   help="scipy least_squares method: trust-region reflective (default) or MINPACK Levenberg-Marquardt")
     _progress_args(f, None)
     f.add_argument("--out", default="jaxroll-fit", help="output folder (default jaxroll-fit)")
     f.set_defaults(func=_fit)

@@ -160,6 +160,29 @@ def _conversion(units, unit):
     return units[hits[0]] if len(hits) == 1 else None
 
 
+def _match_columns(path, hline, header, names, columns, case_sensitive):
+    """``{spec name: file column index}`` and the header names that match no spec; a spec
+    matched twice is an error."""
+    norm = (lambda s: s) if case_sensitive else (lambda s: s.lower().replace(" ", "_"))
+    by_name = {norm(n): c for c in columns for n in c.names}
+    where, unused = {}, []
+    for j, n in enumerate(names):
+        spec = by_name.get(norm(n))
+        if spec is None:
+            unused.append(header[j])
+        elif spec.name in where:
+            first = header[where[spec.name]]
+            if norm(first) == norm(header[j]):
+                raise ValueError(f"{path}, line {hline}: column name(s) {[spec.name]} appear more than once")
+            raise ValueError(f"{path}, line {hline}: two columns give the {spec.name} ({first!r} and {header[j]!r})")
+        else:
+            where[spec.name] = j
+    missing = [c.name for c in columns if c.required and c.name not in where]
+    if missing:
+        raise ValueError(f"{path}, line {hline}: missing column(s) {missing}; the header has {header}")
+    return where, unused
+
+
 def read_table(path, columns: Sequence[Column], *, units_row="required", kind="data", case_sensitive=True,
                warn_unused=True) -> Table:
     """Read a CSV table into SI columns.
@@ -192,25 +215,7 @@ def read_table(path, columns: Sequence[Column], *, units_row="required", kind="d
     hline, header = rows[0]
     header = [h.strip() for h in header]
     names, name_units = zip(*[_split_name(h) for h in header])
-    norm = (lambda s: s) if case_sensitive else (lambda s: s.lower().replace(" ", "_"))
-    by_name = {norm(n): c for c in columns for n in c.names}
-
-    # which file column gives which spec
-    where, unused = {}, []
-    for j, n in enumerate(names):
-        spec = by_name.get(norm(n))
-        if spec is None:
-            unused.append(header[j])
-        elif spec.name in where:
-            first = header[where[spec.name]]
-            if norm(first) == norm(header[j]):
-                raise ValueError(f"{path}, line {hline}: column name(s) {[spec.name]} appear more than once")
-            raise ValueError(f"{path}, line {hline}: two columns give the {spec.name} ({first!r} and {header[j]!r})")
-        else:
-            where[spec.name] = j
-    missing = [c.name for c in columns if c.required and c.name not in where]
-    if missing:
-        raise ValueError(f"{path}, line {hline}: missing column(s) {missing}; the header has {header}")
+    where, unused = _match_columns(path, hline, header, names, columns, case_sensitive)
     if unused and warn_unused:
         expected = [c.name for c in columns if c.required]
         optional = [c.name for c in columns if not c.required]

@@ -16,7 +16,7 @@ Pipeline (all SI: angular frequency [rad/s], shear moduli [Pa], temperatures [K]
    :func:`master_curve`.
 3. :func:`fit_prony`: non-negative least squares of a generalized Maxwell series on
    log-spaced relaxation times (storage and loss jointly, relative residuals), optionally
-   refined in JAX (Levenberg-Marquardt on ``log G_i, log tau_i``, jitted residual Jacobian).
+   refined in JAX (least squares on ``log G_i, log tau_i``, jitted residual and Jacobian).
 4. :func:`write_abaqus`, :func:`write_ansys`, :func:`save_material` / :func:`load_material`.
 
 Shift-factor convention (jaxroll's): the material at ``T`` behaves as the reference material
@@ -35,6 +35,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._lsq import least_squares
 from .fit import Z95
 from .io import UNITS, Column, DataWarning, read_table, write_table
 from .material import GAS_CONSTANT, WLF, Arrhenius, GeneralizedMaxwell
@@ -437,8 +438,6 @@ def fit_wlf(shifts: ShiftFactors) -> ShiftFit:
     ``C2``, then :func:`scipy.optimize.least_squares` on both); the covariance comes from the
     least-squares Jacobian at the optimum, scaled by the residual variance.
     """
-    from scipy.optimize import least_squares
-
     T, y = _others(shifts)
     dT = T - shifts.T_ref
     c2_min = max(-dT.min(), 0.0) + 1e-6
@@ -450,13 +449,16 @@ def fit_wlf(shifts: ShiftFactors) -> ShiftFit:
     def resid(p):
         return -p[0] * dT / (p[1] + dT) - y
 
+    def jac(p):
+        return np.stack([-dT / (p[1] + dT), p[0] * dT / (p[1] + dT) ** 2], axis=1)
+
     grid = c2_min + np.logspace(-1, 4, 400)
     costs = [float(np.sum(resid([c1_given(c2), c2]) ** 2)) for c2 in grid]
     c2 = float(grid[int(np.argmin(costs))])
-    sol = least_squares(resid, [c1_given(c2), c2], bounds=([-np.inf, c2_min], [np.inf, np.inf]), x_scale="jac",
-                        xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    sol = least_squares(resid, jac, [c1_given(c2), c2], bounds=([-np.inf, c2_min], [np.inf, np.inf]), x_scale="jac",
+                        rtol=1e-14)
     C1, C2 = sol.x
-    return _shift_fit(WLF(C1=C1, C2=C2, T_ref=shifts.T_ref), ("C1", "C2"), sol.x, sol.jac, sol.fun)
+    return _shift_fit(WLF(C1=C1, C2=C2, T_ref=shifts.T_ref), ("C1", "C2"), sol.x, sol.jacobian, sol.residuals)
 
 
 def fit_arrhenius(shifts: ShiftFactors) -> ShiftFit:
@@ -591,27 +593,15 @@ def _prony_residuals(p, logw, log_gs, log_gl, log_tau_range, weight):
 _prony_jacobian = jax.jit(jax.jacfwd(_prony_residuals))
 
 
-def _refine(p, args, max_steps=200):
-    """Levenberg-Marquardt on the jitted residual and its forward-mode Jacobian."""
-    r = np.asarray(_prony_residuals(jnp.asarray(p), *args))
-    cost, mu = float(r @ r), 1e-3
-    for _ in range(max_steps):
-        J = np.asarray(_prony_jacobian(jnp.asarray(p), *args))
-        A, g = J.T @ J, J.T @ r
-        improved = False
-        for _ in range(30):
-            h = np.linalg.solve(A + mu * np.diag(np.diag(A) + 1e-12), -g)
-            pn = p + np.clip(h, -2.0, 2.0)
-            rn = np.asarray(_prony_residuals(jnp.asarray(pn), *args))
-            cn = float(rn @ rn)
-            if np.isfinite(cn) and cn < cost:
-                improved = cost - cn > 1e-12 * cost
-                p, r, cost, mu = pn, rn, cn, max(mu / 3.0, 1e-12)
-                break
-            mu *= 4.0
-        if not improved:
-            break
-    return p
+def _refine(p, args):
+    """Levenberg-Marquardt from ``p`` (MINPACK, scaled by the Jacobian's columns: moduli and
+    times differ in sensitivity by decades) on the jitted residual and its forward-mode
+    Jacobian. At most 300 evaluations: by then the cost is flat to ~1e-6 relative, and what
+    remains moves terms that carry almost no modulus along a valley towards ``G_i -> 0``."""
+    sol = least_squares(lambda x: _prony_residuals(jnp.asarray(x), *args),
+                        lambda x: _prony_jacobian(jnp.asarray(x), *args), p, method="lm", rtol=1e-10,
+                        max_evaluations=300, x_scale="jac")
+    return sol.x
 
 
 def fit_prony(master: MasterCurve, *, n_terms=None, refine=True, weights=None) -> PronyFit:
@@ -624,7 +614,7 @@ def fit_prony(master: MasterCurve, *, n_terms=None, refine=True, weights=None) -
     ``(G'_fit - G'_meas)/G'_meas`` and ``(G''_fit - G''_meas)/G''_meas`` (a log-weighted design:
     every decade of modulus counts alike). Terms NNLS sets to zero are dropped (the number of
     terms is minimised). With ``refine``, the kept terms' moduli and times are then refined
-    together by Levenberg-Marquardt on ``log G'``, ``log G''`` in ``log G_i`` and the times
+    together by least squares (:func:`scipy.optimize.least_squares`) on ``log G'``, ``log G''`` in ``log G_i`` and the times
     (positive by construction, kept within half a decade of the data's range: a term beyond it
     would be fitted to the noise at the curve's ends with nothing to bound its modulus, e.g. an
     unphysical glassy modulus); residual and Jacobian compiled with JAX.
