@@ -406,11 +406,6 @@ def _residuals(logp, model, data, problem):
 
 
 @eqx.filter_jit
-def _residuals_jit(logp, model, data, problem):
-    return _residuals(logp, model, data, problem)
-
-
-@eqx.filter_jit
 def _residuals_and_jacobian_jit(logp, model, data, problem):
     """``(r, dr/dlogp)``: forward mode (``k`` tangents for ``k`` free parameters), or central
     differences with step ``problem.jac_step`` in the log-parameters (``2k`` batched
@@ -485,33 +480,40 @@ def _check_problem(rolling, dma, initial, free, layer, radius, geometry, method,
 
 def _host_functions(problem, model, data, progress):
     """Residual and Jacobian in the unconstrained coordinates ``u`` for the least-squares
-    driver. The Jacobian call (made at accepted points) reports progress and keeps the last
-    ``(u, r, dr/dlogp)`` for the covariance."""
+    driver. Each point is evaluated once, residual and Jacobian together (``k`` forward-mode
+    tangents cost little more than the residual, and scipy asks for the Jacobian at every
+    accepted point right after its residual). The Jacobian call (made at accepted points)
+    reports progress."""
     params, names = problem.params, problem.params.names_flat()
-    t_start, last = time.perf_counter(), {"count": 0}
+    t_start, last, count = time.perf_counter(), {}, [0]
+
+    def evaluate(u):
+        if "u" not in last or not np.array_equal(last["u"], u):
+            logp, slope = params.logp_and_slope(u)
+            r, Jl = (np.asarray(a) for a in _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem))
+            last.update(u=np.array(u), logp=logp, slope=slope, r=r, J_logp=Jl)
+        return last
 
     def residuals(u):
-        return np.asarray(_residuals_jit(jnp.asarray(params.logp_and_slope(u)[0]), model, data, problem))
+        return evaluate(u)["r"]
 
     def jacobian(u):
-        logp, slope = params.logp_and_slope(u)
-        r, Jl = (np.asarray(a) for a in _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem))
-        last.update(count=last["count"] + 1, u=np.array(u), r=r, J_logp=Jl)
+        e = evaluate(u)
         if progress:
-            values = dict(zip(names, np.exp(logp).tolist()))
-            elapsed, chi2 = time.perf_counter() - t_start, float(r @ r)
+            count[0] += 1
+            values = dict(zip(names, np.exp(e["logp"]).tolist()))
+            elapsed, chi2 = time.perf_counter() - t_start, float(e["r"] @ e["r"])
             if callable(progress):
-                progress(last["count"], chi2, values, elapsed)
+                progress(count[0], chi2, values, elapsed)
             else:
                 shown = "  ".join(f"{n}={v:.5g}" for n, v in values.items())
-                print(f"fit: evaluation {last['count']:3d}  chi2 {chi2:.6g}  {shown}  ({elapsed:.1f} s)", flush=True)
-        return Jl * slope[None, :]
+                print(f"fit: evaluation {count[0]:3d}  chi2 {chi2:.6g}  {shown}  ({elapsed:.1f} s)", flush=True)
+        return e["J_logp"] * e["slope"][None, :]
 
     def at(u):
-        """``(r, dr/dlogp)`` at ``u``, from the last Jacobian call when it was made there."""
-        if "u" not in last or not np.array_equal(last["u"], u):
-            jacobian(u)
-        return last["r"], last["J_logp"]
+        """``(r, dr/dlogp)`` at ``u``."""
+        e = evaluate(u)
+        return e["r"], e["J_logp"]
 
     return residuals, jacobian, at
 
