@@ -3,7 +3,7 @@ points (23 speeds 1e-4..1 m/s x 15 loads 10..150 N, sphere R = 2 cm on H = 30 mm
 2 % noise).
 
 Reports, apart: the first fit (compile + run), the compile time (first minus the same fit again,
-warm: the compiled residual/Jacobian is cached per static configuration, so later fits of data
+warm: the compiled residual/Jacobian is keyed on the static configuration, so later fits of data
 of the same shape do not recompile), and the median warm fit from other starts (run only), with
 the number of residual+Jacobian evaluations (counted by ``fit_material``'s ``progress``
 callback) and the recovered parameters. ``--quick``: 7 x 5 points, one other start.
@@ -67,18 +67,18 @@ def main():
     warnings.simplefilter("ignore", jr.IdentifiabilityWarning)
     counter = Counter()
     kw = dict(layer=layer, radius=0.02, method=jr.Direct())
-    print(f"# fit benchmark: {V.size} points, direct method, LM in log-parameters, {jax.devices()[0].platform}, "
+    print(f"# fit benchmark: {V.size} points, direct method, least squares in log-parameters, {jax.devices()[0].platform}, "
           f"cpu count {os.cpu_count()}, load avg {os.getloadavg()[0]:.1f} (shared machine)")
-    jr.fit.clear_cache()
-    res, first, n_first = fit(counter, V, P, meas, initial=starts[0], **kw)
+    data = jr.RollingData(V, P, meas)
+    res, first, n_first = fit(counter, data, initial=starts[0], **kw)
     times, evals = [], []
     for s in starts[1:1 + repeats]:
-        f2, t, n = fit(counter, V, P, meas, initial=s, **kw)
+        f2, t, n = fit(counter, data, initial=s, **kw)
         times.append(t)
         evals.append(n)
         if abs(float(f2.params["tau"]) / float(res.params["tau"]) - 1) > 1e-4:
             print(f"  note: start {s} converged elsewhere (tau {float(f2.params['tau']):.4g})")
-    _, warm_same, _ = fit(counter, V, P, meas, initial=starts[0], **kw)
+    _, warm_same, _ = fit(counter, data, initial=starts[0], **kw)
     print(f"first fit (compile + run)     : {first:.2f} s ({n_first} residual+Jacobian evaluations)")
     print(f"same fit again (warm, cached) : {warm_same:.2f} s -> compile ~ {first - warm_same:.2f} s")
     print(f"fits from other starts (warm) : median {np.median(times):.2f} s  (min {min(times):.2f}, "
@@ -96,7 +96,7 @@ def main():
         method = ms.full_method(args.spacing)
         print(f"\n# full 3D fit of the shipped 60-point set, method {method}")
         for label in ("first (compile + run)", "warm repeat"):
-            ff, t, n = fit(counter, data.speed, data.load, data.value, sigma=data.sigma, absolute_sigma=True,
+            ff, t, n = fit(counter, data, absolute_sigma=True,
                            initial=jr.StandardLinearSolid(2e6, 0.35, 0.7), layer=jr.Layer(H=ms.H, rho=ms.RHO),
                            radius=ms.R, method=method)
             print(f"{label}: {t:.1f} s ({n} evaluations)")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 import warnings
@@ -12,6 +11,7 @@ from pathlib import Path
 import equinox as eqx
 import numpy as np
 
+from .io import write_table
 from .methods import METHOD_NAMES
 
 __all__ = ["main"]
@@ -77,13 +77,11 @@ def _demo(args) -> int:
     plot.plot_master_curves({"[ZG] example": mat}, path=out / "master_curves.png")
     plot.plot_compliance(mat, layers, args.speed, path=out / "compliance.png")
     q = np.logspace(0, 5, 101)
-    with open(out / "compliance.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["q", *[f"{p} {name}" for name in layers for p in ("ReT", "ImT")]])
-        w.writerow(["rad/m", *["m/Pa"] * (2 * len(layers))])
-        cols = [np.asarray(jr.surface_compliance(lay, mat, q, 0.0, args.speed)) for lay in layers.values()]
-        for i, qi in enumerate(q):
-            w.writerow([f"{qi:.6e}", *[f"{v:.6e}" for c in cols for v in (c[i].real, c[i].imag)]])
+    cols = {"q": q}
+    for name, lay in layers.items():
+        c = np.asarray(jr.surface_compliance(lay, mat, q, 0.0, args.speed))
+        cols.update({f"ReT {name}": c.real, f"ImT {name}": c.imag})
+    write_table(out / "compliance.csv", cols, ["rad/m", *["m/Pa"] * (2 * len(layers))], formats=".6e")
     print(f"material: G0 = {args.G0:g} Pa, tau = {args.tau:g} s, f = {args.f:g};"
           f" layers H = 2, 5, 30 mm and half-space, rho = {args.rho:g} kg/m^3, V = {args.speed:g} m/s")
     print(f"wrote {out / 'master_curves.png'}, {out / 'compliance.png'}, {out / 'compliance.csv'}"
@@ -194,16 +192,13 @@ def _fit(args) -> int:
         except ValueError:
             raise ValueError(f"--wlf: expected three numbers C1,C2,T_ref, got {args.wlf!r}") from None
         shift = jr.WLF(C1=c1, C2=c2, T_ref=tref)
-    kw = {}
-    if data is not None:
-        kw = dict(speeds=data.speed, loads=data.load, measured=data.value, sigma=data.sigma)
     method = _method_from_args(args, fit=True)
     if data is not None and method.needs_resolution(args.geometry):
         raise ValueError(f"--method {_method_name(args, fit=True)} computes on a grid, which a fit must keep fixed while the material "
                          f"varies: give --spacing and --window (and --period), e.g. --spacing 2.5e-4 --window 55 "
                          f"--period 0.2")
-    fit = jfit.fit_material(**kw, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
-                            geometry=args.geometry, method=method, free=free, dma=dma, shift=shift,
+    fit = jfit.fit_material(data, dma, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
+                            geometry=args.geometry, method=method, free=free, shift=shift,
                             n_starts=args.starts, seed=args.seed, solver=args.solver,
                             progress=args.progress or (args.progress is None and _method_name(args, fit=True) != "direct"))
     report = fit.report()
@@ -225,12 +220,8 @@ def _fit(args) -> int:
         sig = data.value if data.sigma is None else data.sigma
         fitted = np.asarray(data.value) - np.asarray(fit.residuals[:n_rr]) * np.asarray(sig)
         plot.plot_fit(data.speed, data.load, data.value, fitted, unit=unit, path=out / "fit.png")
-        with open(out / "fitted.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["speed", "load", "measured", "fitted"])
-            w.writerow(["m/s", "N" if args.geometry == "sphere" else "N/m", unit, unit])
-            for row in zip(data.speed, data.load, data.value, fitted):
-                w.writerow([f"{x:.8g}" for x in row])
+        write_table(out / "fitted.csv", {"speed": data.speed, "load": data.load, "measured": data.value, "fitted": fitted},
+                    ["m/s", unit, unit, unit], formats=".8g")
         written += ["fit.png", "fitted.csv"]
     print(report)
     print(f"wrote {', '.join(str(out / w) for w in written)}  ({time.perf_counter() - t0:.1f} s)")
@@ -334,14 +325,11 @@ def _curve(args) -> int:
                                          geometry=args.geometry, method=_method_from_args(args), throw=False)
     values, codes = np.asarray(res.value).T, np.asarray(res.result).T  # (loads, speeds)
     unit = "N" if args.geometry == "sphere" else "N/m"
-    with open(out / "curve.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["speed", "load", "rolling_resistance", "valid", "result"])
-        w.writerow(["m/s", "N" if args.geometry == "sphere" else "N/m", unit, "-", "-"])
-        for i, P in enumerate(loads):
-            for j, V in enumerate(speeds):
-                w.writerow([f"{V:.8g}", f"{P:.8g}", f"{values[i, j]:.8g}", int(codes[i, j] == 0),
-                            jr.RESULTS.names[int(codes[i, j])]])
+    P_, V_ = (a.ravel() for a in np.meshgrid(loads, speeds, indexing="ij"))
+    write_table(out / "curve.csv", {"speed": V_, "load": P_, "rolling_resistance": values.ravel(),
+                                    "valid": (codes.ravel() == 0).astype(int),
+                                    "result": [jr.RESULTS.names[int(c)] for c in codes.ravel()]},
+                ["m/s", unit, unit, "-", "-"], formats=".8g")
     _warn_invalid(codes, "curve")
     plot.plot_rolling_curves(speeds, loads, values, unit=unit, valid=codes == 0,
                              title=f"{args.geometry}, method {_method_name(args)}, H = {args.H} m", path=out / "curve.png")
@@ -384,14 +372,12 @@ def _sweep_cmd(args) -> int:
 
     values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=args.progress))
     names = list(axes)
-    with open(out / "sweep.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(names + ["rolling_resistance", "valid", "result"])
-        w.writerow([_SWEEP_NAMES[n].split("[")[1].rstrip("]") for n in names]
-                   + ["N" if args.geometry == "sphere" else "N/m", "-", "-"])
-        for idx in np.ndindex(values.shape):
-            w.writerow([f"{axes[n][i]:.8g}" for n, i in zip(names, idx)]
-                       + [f"{values[idx]:.8g}", int(codes[idx] == 0), jr.RESULTS.names[int(codes[idx])]])
+    mesh = np.meshgrid(*[np.asarray(axes[n]) for n in names], indexing="ij")
+    cols = {n: m.ravel() for n, m in zip(names, mesh)}
+    cols.update(rolling_resistance=values.ravel(), valid=(codes.ravel() == 0).astype(int),
+                result=[jr.RESULTS.names[int(c)] for c in codes.ravel()])
+    write_table(out / "sweep.csv", cols, [_SWEEP_NAMES[n].split("[")[1].rstrip("]") for n in names]
+                + ["N" if args.geometry == "sphere" else "N/m", "-", "-"], formats=".8g")
     _warn_invalid(codes, "sweep")
     print(f"{values.size} points; wrote {out / 'sweep.csv'}  ({time.perf_counter() - t0:.1f} s)")
     return 0
@@ -481,24 +467,19 @@ def _material_cmd(args) -> int:
     jr.save_material(out / "material.csv", mat, wlf.shift)
     jr.write_abaqus(mat, out / "material_abaqus.inp", shift=wlf.shift, poisson=args.fe_poisson)
     jr.write_ansys(mat, out / "material_ansys.mac", shift=wlf.shift, poisson=args.fe_poisson)
-    with open(out / "shift_factors.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["temperature", "log10_aT", "sigma", "step_sigma", "wlf_log10_aT", "arrhenius_log10_aT",
-                    "reference"])
-        w.writerow(["K", "-", "-", "-", "-", "-", "-"])
-        laws = [np.asarray(f.shift.log_shift(sh.temperature)) / np.log(10.0) for f in (wlf, arr)]
-        for i, T in enumerate(sh.temperature):
-            w.writerow([f"{T:.8g}", *(f"{v:.8g}" for v in (sh.log10_aT[i], sh.sigma[i], sh.step_sigma[i],
-                                                             laws[0][i], laws[1][i])), int(i == sh.reference)])
+    laws = [np.asarray(f.shift.log_shift(sh.temperature)) / np.log(10.0) for f in (wlf, arr)]
+    write_table(out / "shift_factors.csv", {"temperature": sh.temperature, "log10_aT": sh.log10_aT, "sigma": sh.sigma,
+                                            "step_sigma": sh.step_sigma, "wlf_log10_aT": laws[0],
+                                            "arrhenius_log10_aT": laws[1],
+                                            "reference": (np.arange(len(sh.temperature)) == sh.reference).astype(int)},
+                ["K", "-", "-", "-", "-", "-", "-"], formats=".8g")
     fitted = np.asarray(jr.complex_modulus(mat, master.omega))
-    with open(out / "master_curve.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["reduced_omega", "storage", "loss", "temperature", "set", "prony_storage", "prony_loss"])
-        w.writerow(["rad/s", "Pa", "Pa", "K", "-", "Pa", "Pa"])
-        for k in range(len(master.omega)):
-            w.writerow([f"{master.omega[k]:.8g}", f"{master.storage[k]:.8g}", f"{master.loss[k]:.8g}",
-                        f"{sw.set_temperature[master.set[k]]:.6g}", int(master.set[k]), f"{fitted[k].real:.8g}",
-                        f"{fitted[k].imag:.8g}"])
+    write_table(out / "master_curve.csv", {"reduced_omega": master.omega, "storage": master.storage, "loss": master.loss,
+                                           "temperature": sw.set_temperature[master.set], "set": master.set,
+                                           "prony_storage": fitted.real, "prony_loss": fitted.imag},
+                ["rad/s", "Pa", "Pa", "K", "-", "Pa", "Pa"],
+                formats={**dict.fromkeys(("reduced_omega", "storage", "loss", "prony_storage", "prony_loss"), ".8g"),
+                         "temperature": ".6g"})
     plot.close(plot.plot_master_fit(master, pf, path=out / "master_curve.png"))
     plot.close(plot.plot_shift_factors(sh, {"WLF": wlf, "Arrhenius": arr}, path=out / "shift_factors.png"))
     (out / "material_report.txt").write_text("\n".join(report) + "\n")
@@ -628,7 +609,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(add C1,C2 to --free to fit them)")
     f.add_argument("--starts", type=_count("--starts"), default=5, help="number of starts spread over two decades (5)")
     f.add_argument("--seed", type=int, default=0)
-    f.add_argument("--solver", choices=["lm", "lbfgs"], default="lm")
+    f.add_argument("--solver", choices=["trf", "lm"], default="trf",
+                   help="scipy least_squares method: trust-region reflective (default) or MINPACK Levenberg-Marquardt")
     _progress_args(f, None)
     f.add_argument("--out", default="jaxroll-fit", help="output folder (default jaxroll-fit)")
     f.set_defaults(func=_fit)

@@ -1,8 +1,9 @@
 """Material identification from measured rolling resistance and/or DMA data.
 
-Weighted least squares in log-parameters (positivity built in), solved by a damped
-Levenberg-Marquardt iteration in log-parameters (default, ``solver="lm"``) or optax L-BFGS, with multi-start, optional bounds and
-Gauss-Newton uncertainty (covariance, standard errors, 95 % intervals, correlations).
+Weighted least squares in log-parameters (positivity built in), solved by
+:func:`scipy.optimize.least_squares` on a compiled JAX residual and its forward-mode Jacobian,
+with multi-start, optional bounds and Gauss-Newton uncertainty (covariance, standard errors,
+95 % intervals, correlations).
 
 Residuals, stacked over the data sets supplied:
 
@@ -20,19 +21,18 @@ interval ``exp(log p +- 1.96 sqrt(cov_ii))`` (asymmetric, positive).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
 import time
 import warnings
-from pathlib import Path
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float
+from ._lsq import least_squares
+from .io import UNITS, Column, DataWarning, read_table
 from .material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
 
 __all__ = [
@@ -40,7 +40,6 @@ __all__ = [
     "RollingData",
     "FitResult",
     "IdentifiabilityWarning",
-    "clear_cache",
     "fit_material",
     "read_dma_csv",
     "read_rolling_csv",
@@ -56,10 +55,6 @@ class IdentifiabilityWarning(UserWarning):
 class MisfitWarning(UserWarning):
     """With measured sigma, the residuals are far larger than the errors: model error (or sigma
     too small)."""
-
-
-class DataWarning(UserWarning):
-    """A data file has columns that are not used, or repeated points."""
 
 
 # ----------------------------------------------------------------------------------------
@@ -91,12 +86,15 @@ class RollingData:
 @dataclasses.dataclass(frozen=True)
 class DMAData:
     """Dynamic mechanical analysis data, SI: angular frequency omega [rad/s], storage and loss
-    shear moduli [Pa], optional temperature [K] (then a shift is needed to fit)."""
+    shear moduli [Pa], optional temperature [K] (then a shift is needed to fit), optional
+    standard deviations of the storage and loss moduli [Pa] (both or neither)."""
 
     omega: np.ndarray
     storage: np.ndarray
     loss: np.ndarray
     temperature: np.ndarray | None = None
+    storage_sigma: np.ndarray | None = None
+    loss_sigma: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.omega)
@@ -108,6 +106,11 @@ class DMAData:
         _check_array("loss modulus", self.loss, positive=True)
         if self.temperature is not None:
             _check_array("temperature", self.temperature, positive=True)
+        if (self.storage_sigma is None) != (self.loss_sigma is None):
+            raise ValueError("DMAData: give both storage_sigma and loss_sigma, or neither")
+        for name in ("storage_sigma", "loss_sigma"):
+            if getattr(self, name) is not None:
+                _check_array(name, getattr(self, name), positive=True)
 
 
 def _check_array(name, x, positive):
@@ -118,91 +121,24 @@ def _check_array(name, x, positive):
         raise ValueError(f"{name}: entry {i} is {x[i]!r}; values must be finite" + (" and positive" if positive else ""))
 
 
-_UNITS = {
-    "speed": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
-    "load": {"N": 1.0, "kN": 1e3, "N/m": 1.0, "kN/m": 1e3},
-    "rolling_resistance": {"N": 1.0, "mN": 1e-3, "N/m": 1.0, "mN/m": 1e-3},
-    "sigma": {"N": 1.0, "mN": 1e-3, "N/m": 1.0, "mN/m": 1e-3},
-    "frequency": {"Hz": 2 * math.pi, "rad/s": 1.0},
-    "storage_modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9},
-    "loss_modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9},
-    "temperature": {"K": None, "degC": None, "C": None, "°C": None},
-}
-_POSITIVE = {"speed", "load", "rolling_resistance", "sigma", "frequency", "storage_modulus", "loss_modulus"}
+def _rolling_columns():
+    force = {**UNITS["force"], **UNITS["line_force"]}
+    return [Column("speed", UNITS["speed"], positive=True), Column("load", force, positive=True),
+            Column("rolling_resistance", force, positive=True), Column("sigma", force, required=False, positive=True)]
 
 
-def _read_table(path, required, optional, kind):
-    """Read a CSV with a header row of names and a row of units (the common DMA convention).
-    Blank lines and lines starting with ``#`` (comments, e.g. how the data were made) are
-    skipped. Returns {column: SI numpy array}. Errors name the file line."""
-    path = Path(path)
-    with open(path, newline="", encoding="utf-8-sig") as fh:  # utf-8-sig: spreadsheets write a BOM
-        rows = [(i + 1, r) for i, r in enumerate(csv.reader(fh))
-                if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
-    if len(rows) < 3:
-        raise ValueError(f"{path}: a {kind} CSV needs a header row of names, a row of units and data rows")
-    (hline, header), (uline, units) = rows[0], rows[1]
-    header = [h.strip() for h in header]
-    units = [u.strip() for u in units]
-    missing = [c for c in required if c not in header]
-    if missing:
-        raise ValueError(f"{path}, line {hline}: missing column(s) {missing}; the header has {header}")
-    repeated = sorted({h for h in header if header.count(h) > 1})
-    if repeated:
-        raise ValueError(f"{path}, line {hline}: column name(s) {repeated} appear more than once")
-    unknown = [h for h in header if h not in required and h not in optional]
-    if unknown:
-        warnings.warn(f"{path}: column(s) {unknown} not used (a {kind} CSV has {required}, optional {optional}); "
-                      f"check the spelling", DataWarning, stacklevel=3)
-    if len(units) != len(header):
-        raise ValueError(f"{path}, line {uline}: the units row has {len(units)} entries for {len(header)} columns")
-    for line, r in rows[2:]:
-        if len(r) > len(header) and any(c.strip() for c in r[len(header):]):
-            raise ValueError(f"{path}, line {line}: {len(r)} cells for {len(header)} columns (extra values after "
-                             f"{header[-1]!r})")
-    out = {}
-    for col in required + [c for c in optional if c in header]:
-        j = header.index(col)
-        unit = units[j]
-        allowed = _UNITS[col]
-        if unit not in allowed:
-            try:
-                float(unit)
-                hint = " (is the units row missing?)"
-            except ValueError:
-                hint = ""
-            raise ValueError(
-                f"{path}, line {uline}: unit {unit!r} of column {col!r} not understood{hint}; expected one of {sorted(allowed)}"
-            )
-        vals = []
-        for line, r in rows[2:]:
-            if j >= len(r):
-                raise ValueError(f"{path}, line {line}: missing value in column {col!r}")
-            text = r[j].strip()
-            try:
-                v = float(text)
-            except ValueError:
-                raise ValueError(f"{path}, line {line}: {col} = {text!r} is not a number") from None
-            if not math.isfinite(v):
-                raise ValueError(f"{path}, line {line}: {col} is {text!r}; values must be finite")
-            if col == "temperature":
-                v = v + 273.15 if unit in ("degC", "C", "°C") else v
-                if v <= 0:
-                    raise ValueError(f"{path}, line {line}: temperature {text} {unit} is below absolute zero")
-            else:
-                if col in _POSITIVE and v <= 0:
-                    raise ValueError(f"{path}, line {line}: {col} must be positive, got {text} {unit}")
-                v = v * allowed[unit]
-            vals.append(v)
-        out[col] = np.asarray(vals)
-    return out
+def _dma_columns():
+    return [Column("frequency", UNITS["frequency"], positive=True),
+            Column("storage_modulus", UNITS["modulus"], positive=True),
+            Column("loss_modulus", UNITS["modulus"], positive=True),
+            Column("temperature", UNITS["temperature"], required=False, positive=True)]
 
 
 def read_rolling_csv(path) -> RollingData:
     """Read rolling-resistance data: columns ``speed``, ``load``, ``rolling_resistance``
     (optional ``sigma``); second row units (``m/s``/``mm/s``/``km/h``; ``N``/``kN``/``N/m``;
     ``N``/``mN``...)."""
-    t = _read_table(path, ["speed", "load", "rolling_resistance"], ["sigma"], "rolling-resistance")
+    t = read_table(path, _rolling_columns(), kind="rolling-resistance")
     _warn_repeated(path, np.stack([t["speed"], t["load"]], axis=1), "(speed, load)")
     return RollingData(t["speed"], t["load"], t["rolling_resistance"], t.get("sigma"))
 
@@ -220,7 +156,7 @@ def read_dma_csv(path) -> DMAData:
     """Read DMA data: columns ``frequency`` (``Hz`` or ``rad/s``), ``storage_modulus`` and
     ``loss_modulus`` (``Pa``/``kPa``/``MPa``/``GPa``), optional ``temperature`` (``K`` or
     ``degC``); second row units."""
-    t = _read_table(path, ["frequency", "storage_modulus", "loss_modulus"], ["temperature"], "DMA")
+    t = read_table(path, _dma_columns(), kind="DMA")
     keys = [t["frequency"]] + ([t["temperature"]] if "temperature" in t else [])
     _warn_repeated(path, np.stack(keys, axis=1), "(frequency, temperature)" if len(keys) > 1 else "frequency")
     return DMAData(t["frequency"], t["storage_modulus"], t["loss_modulus"], t.get("temperature"))
@@ -249,7 +185,7 @@ def _get(model, name):
     return getattr(material, name)
 
 
-def _where(model, name):
+def _where(name):
     if name == "H":
         return lambda m: m[1].H
     if name in ("C1", "C2"):
@@ -257,33 +193,41 @@ def _where(model, name):
     return lambda m: getattr(m[0], name)
 
 
-class _Params:
-    """Maps the free physical parameters to an unconstrained vector and back.
+class _Params(eqx.Module):
+    """Maps the free physical parameters to an unconstrained vector and back (static, hashable:
+    part of the compiled residual's key).
 
     Unbounded: ``u = log p``. Bounded ``(lo, hi)``: ``log p = log lo + (log hi - log lo)
     sigmoid(u)``."""
 
-    def __init__(self, model, free, bounds):
-        self.model = model
-        self.free = tuple(free)
-        self.shapes = [jnp.shape(_get(model, n)) for n in self.free]
-        self.sizes = [int(np.prod(s)) for s in self.shapes]
+    free: tuple = eqx.field(static=True)
+    shapes: tuple = eqx.field(static=True)
+    lo: tuple = eqx.field(static=True)
+    hi: tuple = eqx.field(static=True)
+
+    @classmethod
+    def of(cls, model, free, bounds):
+        free = tuple(free)
+        shapes = tuple(tuple(jnp.shape(_get(model, n))) for n in free)
         bounds = dict(bounds or {})
-        unknown = set(bounds) - set(self.free)
+        unknown = set(bounds) - set(free)
         if unknown:
             raise ValueError(f"bounds given for parameters that are not free: {sorted(unknown)}")
-        self.lo = []
-        self.hi = []
-        for n, size in zip(self.free, self.sizes):
-            lo, hi = bounds.get(n, (None, None))
-            if lo is not None and not (0 < lo < hi):
-                raise ValueError(f"bounds for {n!r} must satisfy 0 < lo < hi, got {(lo, hi)}")
-            self.lo.append(None if lo is None else math.log(lo))
-            self.hi.append(None if hi is None else math.log(hi))
-        for n in self.free:
+        lo, hi = [], []
+        for n in free:
+            b_lo, b_hi = bounds.get(n, (None, None))
+            if b_lo is not None and not (0 < b_lo < b_hi):
+                raise ValueError(f"bounds for {n!r} must satisfy 0 < lo < hi, got {(b_lo, b_hi)}")
+            lo.append(None if b_lo is None else math.log(b_lo))
+            hi.append(None if b_hi is None else math.log(b_hi))
             v = np.asarray(_get(model, n))
             if np.any(v <= 0):
                 raise ValueError(f"initial value of {n!r} must be positive for a log-parameter fit, got {v}")
+        return cls(free, shapes, tuple(lo), tuple(hi))
+
+    @property
+    def sizes(self):
+        return [int(np.prod(s)) for s in self.shapes]
 
     @property
     def size(self):
@@ -292,25 +236,20 @@ class _Params:
     def split(self, vec):
         out, i = [], 0
         for shape, size in zip(self.shapes, self.sizes):
-            out.append(jnp.reshape(vec[i : i + size], shape))
+            out.append(vec[i : i + size].reshape(shape))
             i += size
         return out
 
-    def logp_from_u(self, u):
-        parts = []
-        for piece, lo, hi in zip(self.split(u), self.lo, self.hi):
-            parts.append(piece if lo is None else lo + (hi - lo) * jax.nn.sigmoid(piece))
-        return jnp.concatenate([jnp.ravel(p) for p in parts])
-
     def u_from_logp(self, logp):
+        """Host-side (numpy) unconstrained coordinates of ``log p``."""
         parts = []
-        for piece, lo, hi in zip(self.split(logp), self.lo, self.hi):
+        for piece, lo, hi in zip(self.split(np.asarray(logp, float)), self.lo, self.hi):
             if lo is None:
                 parts.append(piece)
             else:
-                t = jnp.clip((piece - lo) / (hi - lo), 1e-9, 1 - 1e-9)
-                parts.append(jnp.log(t) - jnp.log1p(-t))
-        return jnp.concatenate([jnp.ravel(p) for p in parts])
+                t = np.clip((piece - lo) / (hi - lo), 1e-9, 1 - 1e-9)
+                parts.append(np.log(t) - np.log1p(-t))
+        return np.concatenate([np.ravel(p) for p in parts])
 
     def logp_and_slope(self, u):
         """Host-side (numpy) ``log p(u)`` and the diagonal ``d log p / d u``."""
@@ -325,13 +264,13 @@ class _Params:
             i += size
         return logp, slope
 
-    def logp0(self):
-        return jnp.concatenate([jnp.ravel(jnp.log(as_float(_get(self.model, n)))) for n in self.free])
+    def logp0(self, model):
+        return np.concatenate([np.ravel(np.log(np.asarray(_get(model, n), float))) for n in self.free])
 
-    def build(self, logp, model=None):
-        model = self.model if model is None else model
+    def build(self, logp, model):
+        """``model`` with the free parameters set to ``exp(logp)`` (jittable)."""
         for n, piece in zip(self.free, self.split(logp)):
-            model = eqx.tree_at(_where(model, n), model, jnp.exp(piece))
+            model = eqx.tree_at(_where(n), model, jnp.exp(piece))
         return model
 
     def names_flat(self):
@@ -415,11 +354,24 @@ class FitResult:
 
 
 # ----------------------------------------------------------------------------------------
-# the fit
+# the compiled model
 
 
-def _rolling_model(radius, geometry, method):
-    """``predict(material, layer, data) -> R_r`` at the data points ``data["V"], data["P"]``.
+class _Problem(eqx.Module):
+    """The static part of a fit: the free parameters, how the rolling resistance is computed
+    and how the Jacobian is formed. Hashable (the method is an equinox module of static
+    configuration), so it keys the compiled residual and Jacobian: fits that differ only in
+    data values, initial values or fixed parameter values reuse one compiled program."""
+
+    params: _Params
+    radius: float | None = eqx.field(static=True)
+    geometry: str = eqx.field(static=True)
+    method: object = eqx.field(static=True)  # an AbstractMethod, or None for DMA-only fits
+    jac_step: float | None = eqx.field(static=True)
+
+
+def _predict_rolling(material, layer, data, problem):
+    """``R_r`` at the data points ``data["V"], data["P"]``.
 
     A full model evaluates the table of the distinct speeds x distinct loads through
     :func:`jaxroll.rolling_resistance_grid` (one kernel per speed, warm-started loads) and picks
@@ -427,22 +379,11 @@ def _rolling_model(radius, geometry, method):
     :func:`jaxroll.rolling_resistance` over the points."""
     from .rolling import rolling_resistance, rolling_resistance_grid  # the front doors
 
-    if _use_table(method):
-        def predict(material, layer, data):
-            out = rolling_resistance_grid(material, layer, radius=radius, loads=data["Pu"], speeds=data["Vu"],
-                                          geometry=geometry, method=method, throw=False)
-            return out.value[data["iv"], data["ip"]]
-
-        return predict
-
-    def predict(material, layer, data):
-        def one(v, p):
-            return rolling_resistance(material, layer, radius=radius, load=p, speed=v, geometry=geometry,
-                                      method=method, throw=False).value
-
-        return jax.vmap(one)(data["V"], data["P"])
-
-    return predict
+    kw = dict(radius=problem.radius, geometry=problem.geometry, method=problem.method, throw=False)
+    if _use_table(problem.method):
+        out = rolling_resistance_grid(material, layer, loads=data["Pu"], speeds=data["Vu"], **kw)
+        return out.value[data["iv"], data["ip"]]
+    return jax.vmap(lambda v, p: rolling_resistance(material, layer, load=p, speed=v, **kw).value)(data["V"], data["P"])
 
 
 def _use_table(method):
@@ -451,269 +392,40 @@ def _use_table(method):
     return isinstance(method, Full)
 
 
-# Compiled residual/Jacobian (and L-BFGS loop) per static configuration: repeated fits with the
-# same model structure, fixed parameters, options and data shapes (multi-start, noise seeds,
-# bootstrap) reuse them instead of recompiling. Least recently used entries are dropped.
-_CACHE: dict = {}
-_CACHE_SIZE = 16
+def _residuals(logp, model, data, problem):
+    """Weighted residuals, rolling resistance first, then DMA storage and loss."""
+    material, layer, shift = problem.params.build(logp, model)
+    parts = []
+    if "rr" in data:
+        parts.append((_predict_rolling(material, layer, data, problem) - data["rr"]) / data["rr_sig"])
+    if "w" in data:
+        mat_t = material if "T" not in data else at_temperature(material, shift, data["T"])
+        g = complex_modulus(mat_t, data["w"])
+        parts += [(jnp.real(g) - data["gs"]) / data["ss"], (jnp.imag(g) - data["gl"]) / data["sl"]]
+    return jnp.concatenate(parts)
 
 
-def _freeze(x):
-    """A hashable, value-based key for option values and model leaves (raises TypeError if not possible)."""
-    if isinstance(x, dict):
-        return tuple(sorted((k, _freeze(v)) for k, v in x.items()))
-    if isinstance(x, (list, tuple)):
-        return tuple(_freeze(v) for v in x)
-    if isinstance(x, (np.ndarray, jax.Array, np.generic)):
-        a = np.asarray(x)
-        return ("array", a.shape, str(a.dtype), a.tobytes())
-    hash(x)
-    return x
+@eqx.filter_jit
+def _residuals_and_jacobian_jit(logp, model, data, problem):
+    """``(r, dr/dlogp)``: forward mode (``k`` tangents for ``k`` free parameters), or central
+    differences with step ``problem.jac_step`` in the log-parameters (``2k`` batched
+    evaluations)."""
+    if problem.jac_step is None:
+        def f(lp):
+            r = _residuals(lp, model, data, problem)
+            return r, r
+
+        J, r = jax.jacfwd(f, has_aux=True)(logp)
+        return r, J
+    k, step = logp.shape[0], problem.jac_step
+    E = step * jnp.eye(k, dtype=logp.dtype)
+    rs = jax.vmap(_residuals, in_axes=(0, None, None, None))(jnp.concatenate([logp[None, :], logp + E, logp - E]),
+                                                             model, data, problem)
+    return rs[0], ((rs[1 : k + 1] - rs[k + 1 :]) / (2.0 * step)).T
 
 
-def clear_cache():
-    """Drop the compiled fit functions kept by :func:`fit_material`."""
-    _CACHE.clear()
-
-
-class _Compiled:
-    """Jitted functions of one static fit configuration.
-
-    ``res_jac(logp, data) -> (r, J)``: weighted residuals and their Jacobian with respect to the
-    log-parameters (forward mode: ``k`` tangents, ``k`` = number of free parameters; or central
-    differences with step ``jac_step`` in the log-parameters).
-    ``lbfgs(u0, data) -> (u, ok)``: the optax L-BFGS loop in the unconstrained coordinates."""
-
-    def __init__(self, params, predict_rr, max_steps, rtol, jac_step=None):
-        def residuals_logp(logp, data):
-            material, lay, sh = params.build(logp)
-            parts = []
-            if predict_rr is not None:
-                parts.append((predict_rr(material, lay, data) - data["rr"]) / data["rr_sig"])
-            if "w" in data:
-                mat_t = material if "T" not in data else at_temperature(material, sh, data["T"])
-                g = complex_modulus(mat_t, data["w"])
-                parts += [(jnp.real(g) - data["gs"]) / data["ss"], (jnp.imag(g) - data["gl"]) / data["sl"]]
-            return jnp.concatenate(parts)
-
-        def res_jac(logp, data):
-            def f(lp):
-                r = residuals_logp(lp, data)
-                return r, r
-
-            J, r = jax.jacfwd(f, has_aux=True)(logp)
-            return r, J
-
-        def res_jac_fd(logp, data, step):
-            # central differences in the log-parameters: 2k + 1 model evaluations, batched
-            k = logp.shape[0]
-            E = step * jnp.eye(k, dtype=logp.dtype)
-            lps = jnp.concatenate([logp[None, :], logp + E, logp - E])
-            rs = jax.vmap(residuals_logp, in_axes=(0, None))(lps, data)
-            return rs[0], ((rs[1 : k + 1] - rs[k + 1 :]) / (2.0 * step)).T
-
-        self.res_jac = jax.jit(res_jac) if jac_step is None else jax.jit(lambda lp, d: res_jac_fd(lp, d, jac_step))
-        self._lbfgs = None
-        self._make_lbfgs = lambda: _lbfgs_solver(lambda u, data: residuals_logp(params.logp_from_u(u), data),
-                                                 max_steps, rtol)
-
-    @property
-    def lbfgs(self):
-        if self._lbfgs is None:
-            self._lbfgs = self._make_lbfgs()
-        return self._lbfgs
-
-
-def _lbfgs_solver(residuals_u, max_steps, rtol):
-    import optax
-
-    opt = optax.lbfgs()
-
-    @jax.jit
-    def solve(u0, data):
-        loss = lambda u: 0.5 * jnp.sum(residuals_u(u, data) ** 2)  # noqa: E731
-        value_and_grad = optax.value_and_grad_from_state(loss)
-
-        def step(carry):
-            u, state, i, _ = carry
-            value, grad = value_and_grad(u, state=state)
-            updates, state = opt.update(grad, state, u, value=value, grad=grad, value_fn=loss)
-            u = optax.apply_updates(u, updates)
-            return u, state, i + 1, jnp.linalg.norm(grad)
-
-        def cond(carry):
-            _, _, i, gnorm = carry
-            return (i < max_steps) & (gnorm > rtol)
-
-        u, _, i, gnorm = jax.lax.while_loop(cond, step, (u0, opt.init(u0), 0, jnp.inf))
-        g = jax.grad(loss)(u)
-        return u, (i < max_steps) | (jnp.linalg.norm(g) <= 1e-6 * (1.0 + loss(u)))
-
-    return solve
-
-
-def _levenberg_marquardt(evaluate, u0, max_steps, rtol, max_log_step=1.0):
-    """Levenberg-Marquardt (identity damping, Nielsen's damping update), driven from the
-    host (one compiled residual+Jacobian call per trial point).
-
-    ``evaluate(u) -> (r, J_u, J_logp)``. Converged when the Gauss-Newton decrement
-    ``0.5 |J h_GN|^2`` (the reduction a full Gauss-Newton step would give) is below
-    ``rtol * cost`` (scale free; a tiny absolute floor covers noise-free data). Returns
-    ``(u, converged, r, J_logp, steps)``. Steps are capped at ``max_log_step`` per coordinate
-    (a trust region in the log-parameters: it keeps the iteration out of the asymptotic valleys,
-    e.g. ``f -> inf``, that a full first step from a poor start can reach)."""
-    u = np.asarray(u0, float)
-    r, J, Jl = evaluate(u)
-    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-        return u, False, r, Jl, 0
-    cost = 0.5 * float(r @ r)
-    floor = 1e-28 * r.size
-    mu, nu = None, 2.0
-    for it in range(int(max_steps)):
-        A, g = J.T @ J, J.T @ r
-        h_gn = np.linalg.lstsq(J, -r, rcond=None)[0]
-        if 0.5 * float(np.sum((J @ h_gn) ** 2)) <= rtol * cost + floor:
-            return u, True, r, Jl, it
-        # Levenberg damping (identity: a spherical trust region in the log-parameters, which
-        # keeps insensitive directions such as f -> inf from taking huge steps)
-        D = np.ones(len(u))
-        if mu is None:
-            mu = 1e-3 * max(float(np.max(np.diag(A))), 1e-300)
-        while True:
-            try:
-                h = np.linalg.solve(A + mu * np.diag(D), -g)
-            except np.linalg.LinAlgError:
-                h = None
-            if h is not None:
-                big = float(np.max(np.abs(h)))
-                if big > max_log_step:  # trust region in the log-parameters (a factor e^max_log_step per step)
-                    h = h * (max_log_step / big)
-                rn, Jn, Jln = evaluate(u + h)
-                ok = np.all(np.isfinite(rn)) and np.all(np.isfinite(Jn))
-                cost_n = 0.5 * float(rn @ rn) if ok else math.inf
-                pred = -float(g @ h) - 0.5 * float(h @ A @ h)  # Gauss-Newton model reduction
-                rho = (cost - cost_n) / pred if pred > 0 else -1.0
-                if ok and rho > 0:
-                    u, r, J, Jl, cost = u + h, rn, Jn, Jln, cost_n
-                    mu *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
-                    nu = 2.0
-                    break
-            mu *= nu
-            nu *= 2.0
-            if mu > 1e16 * max(float(np.max(np.diag(A))), 1e-300):  # no descent possible at working precision: at the optimum or stuck
-                h_gn = np.linalg.lstsq(J, -r, rcond=None)[0]
-                return u, 0.5 * float(np.sum((J @ h_gn) ** 2)) <= 1e-6 * cost + floor, r, Jl, it
-    return u, False, r, Jl, int(max_steps)
-
-
-def fit_material(
-    speeds=None,
-    loads=None,
-    measured=None,
-    *,
-    initial,
-    layer=None,
-    radius=None,
-    geometry="sphere",
-    method="direct",
-    free=None,
-    sigma=None,
-    dma: DMAData | None = None,
-    dma_sigma=None,
-    shift=None,
-    bounds=None,
-    solver="lm",
-    n_starts=1,
-    spread_decades=2.0,
-    seed=0,
-    absolute_sigma=False,
-    max_steps=500,
-    rtol=1e-10,
-    jac_step=None,
-    progress=False,
-) -> FitResult:
-    """Identify viscoelastic parameters from rolling resistance and/or DMA data.
-
-    Args:
-        speeds, loads, measured: rolling-resistance data (SI: m/s, N or N/m, N or N/m), 1D
-            arrays of equal length, or ``None`` for a DMA-only fit.
-        initial: initial material (:class:`StandardLinearSolid` or :class:`GeneralizedMaxwell`);
-            the fitted material has the same type.
-        layer: :class:`jaxroll.Layer` (required with rolling data; ``"H"`` may be free).
-        radius: roller radius [m] (required with rolling data).
-        geometry, method: passed to :func:`jaxroll.rolling_resistance` (a method object or a
-            shortcut string; default ``"direct"``). The material parameters are traced during
-            the fit, so a method with a grid must be resolved first
-            (``jr.Full().resolve(initial, layer, radius=..., loads=..., speeds=...)`` or a
-            :class:`jaxroll.FixedGrid`); the full model is then evaluated on the table of the
-            distinct speeds x loads (:func:`jaxroll.rolling_resistance_grid`). For
-            multi-parameter full-model fits use ``jr.Full(grid, edge_smoothing=0.25)`` (0.25 at
-            the paper's grid, 0.5 on coarser ones): the exact discrete R_r wiggles with the
-            contact set and LM stalls on it (fitting/README.md).
-        free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``);
-            default: the material's own parameters (``G0, tau, f`` for a standard linear solid,
-            ``G_inf, G, tau`` for a generalized Maxwell material).
-        sigma: standard deviations of ``measured`` (default: ``|measured|``, i.e. relative).
-        dma: :class:`DMAData` to fit jointly (or alone); ``dma_sigma``: ``(sigma', sigma'')``
-            arrays (default relative).
-        shift: WLF/Arrhenius shift for DMA data at several temperatures.
-        bounds: ``{name: (lo, hi)}`` physical bounds.
-        solver: ``"lm"`` (Levenberg-Marquardt on the compiled residual Jacobian) or
-            ``"lbfgs"`` (optax).
-        n_starts: number of starts; the first is ``initial``, the others are drawn
-            log-uniformly within ``spread_decades`` decades around it (seeded by ``seed``).
-        absolute_sigma: treat ``sigma`` as absolute (covariance not rescaled by chi^2).
-        max_steps, rtol: iteration cap and relative tolerance (LM: Gauss-Newton decrement
-            ``<= rtol * cost``; L-BFGS: gradient norm ``<= rtol``).
-        jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
-            differences in the log-parameters with step ``h`` (LM and the covariance), e.g. for
-            models that are only piecewise smooth at a fixed resolution (a full model without
-            ``edge_smoothing``: the contact area changes in whole cells; see fitting/README.md
-            for what this does and does not fix).
-        progress: print one line per residual+Jacobian evaluation (evaluation count, chi^2,
-            parameters, elapsed time) for long fits (a full model: seconds per evaluation), or a
-            callable ``progress(count, chi2, params_dict, seconds)``.
-
-    The compiled residual/Jacobian is cached per static configuration (everything except the
-    initial values of the free parameters and the data values), so repeated fits of data of
-    the same shape do not recompile (:func:`clear_cache` empties the cache).
-
-    Returns:
-        :class:`FitResult`.
-    """
-    if solver not in ("lm", "lbfgs"):
-        raise ValueError(f"solver must be 'lm' or 'lbfgs', got {solver!r}")
-    if not isinstance(initial, (StandardLinearSolid, GeneralizedMaxwell)):
-        raise ValueError("initial must be a StandardLinearSolid or GeneralizedMaxwell")
-    if free is None:
-        free = _DEFAULT_FREE[type(initial)]
-    have_rr = measured is not None
-    if not have_rr and dma is None:
-        raise ValueError("nothing to fit: give rolling-resistance data (speeds, loads, measured) and/or dma")
-    rolling = None
-    if have_rr:
-        if layer is None or radius is None:
-            raise ValueError("rolling-resistance data need layer= and radius=")
-        rolling = RollingData(np.asarray(speeds, float), np.asarray(loads, float), np.asarray(measured, float),
-                              None if sigma is None else np.asarray(sigma, float))
-    if "H" in free and (layer is None or not have_rr):
-        raise ValueError("'H' can only be fitted from rolling-resistance data with a layer")
-    if dma is not None and dma.temperature is not None and shift is None:
-        raise ValueError("DMA data at several temperatures need a shift (jr.WLF or jr.Arrhenius)")
-    if have_rr:
-        from .methods import as_method
-
-        method = as_method(method)
-        method.check_geometry(geometry)
-        if method.needs_resolution(geometry):
-            raise ValueError(f"{type(method).__name__} sizes its grid from the inputs, which a fit varies: resolve it "
-                             f"once over the data, method = method.resolve(initial, layer, radius=..., "
-                             f"loads=measured_loads, speeds=measured_speeds, geometry=...), or give a "
-                             f"jr.FixedGrid")
-
-    params = _Params((initial, layer, shift), free, bounds)
-
-    # the data travel as jit arguments, not closure constants (XLA would constant-fold them)
+def _data_arrays(rolling, dma, method):
+    """The data as jit arguments (not closure constants, which XLA would constant-fold)."""
     data = {}
     if rolling is not None:
         data.update(V=jnp.asarray(rolling.speed), P=jnp.asarray(rolling.load), rr=jnp.asarray(rolling.value),
@@ -724,102 +436,134 @@ def fit_material(
             data.update(Vu=jnp.asarray(Vu), Pu=jnp.asarray(Pu), iv=jnp.asarray(iv.ravel()), ip=jnp.asarray(ip.ravel()))
     if dma is not None:
         data.update(w=jnp.asarray(dma.omega), gs=jnp.asarray(dma.storage), gl=jnp.asarray(dma.loss))
-        data.update(ss=data["gs"] if dma_sigma is None else jnp.asarray(dma_sigma[0]),
-                    sl=data["gl"] if dma_sigma is None else jnp.asarray(dma_sigma[1]))
+        data.update(ss=jnp.asarray(dma.storage if dma.storage_sigma is None else dma.storage_sigma),
+                    sl=jnp.asarray(dma.loss if dma.loss_sigma is None else dma.loss_sigma))
         if dma.temperature is not None:
             data["T"] = jnp.asarray(dma.temperature)
+    return data
 
-    n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
-    k = params.size
-    if n_res < k:
-        raise ValueError(f"{n_res} residuals cannot determine {k} parameters")
 
-    # the compiled functions close over a template model (free fields set to 1: their initial
-    # values are not part of the static configuration)
-    template = params.build(jnp.zeros(k))
-    tparams = _Params(template, free, bounds)
-    try:
-        leaves, treedef = jax.tree_util.tree_flatten(template)
-        key = (treedef, _freeze(leaves), tuple(free), tuple(map(tuple, tparams.shapes)), tuple(tparams.lo),
-               tuple(tparams.hi), have_rr and (float(radius), geometry, method),
-               int(max_steps), float(rtol), None if jac_step is None else float(jac_step))
-        hash(key)
-    except TypeError:
-        key = None
-    bundle = _CACHE.pop(key, None) if key is not None else None
-    if bundle is None:
-        predict_rr = _rolling_model(radius, geometry, method) if have_rr else None
-        bundle = _Compiled(tparams, predict_rr, max_steps, rtol, None if jac_step is None else float(jac_step))
-    if key is not None:
-        _CACHE[key] = bundle
-        while len(_CACHE) > _CACHE_SIZE:
-            _CACHE.pop(next(iter(_CACHE)))
+# ----------------------------------------------------------------------------------------
+# the fit
 
-    names = params.names_flat()
-    t_start, count = time.perf_counter(), [0]
+
+def _check_problem(rolling, dma, initial, free, layer, radius, geometry, method, shift):
+    """Validate the inputs of :func:`fit_material`; returns the method object (None without
+    rolling data)."""
+    if not isinstance(initial, (StandardLinearSolid, GeneralizedMaxwell)):
+        raise ValueError("initial must be a StandardLinearSolid or GeneralizedMaxwell")
+    if rolling is None and dma is None:
+        raise ValueError("nothing to fit: give rolling-resistance data (RollingData) and/or dma (DMAData)")
+    if rolling is not None and not isinstance(rolling, RollingData):
+        raise ValueError(f"rolling data must be a RollingData (speed, load, value[, sigma]); got {type(rolling).__name__}")
+    if dma is not None and not isinstance(dma, DMAData):
+        raise ValueError(f"dma must be a DMAData (omega, storage, loss[, temperature]); got {type(dma).__name__}")
+    if "H" in free and (layer is None or rolling is None):
+        raise ValueError("'H' can only be fitted from rolling-resistance data with a layer")
+    if dma is not None and dma.temperature is not None and shift is None:
+        raise ValueError("DMA data at several temperatures need a shift (jr.WLF or jr.Arrhenius)")
+    if rolling is None:
+        return None
+    if layer is None or radius is None:
+        raise ValueError("rolling-resistance data need layer= and radius=")
+    from .methods import as_method
+
+    method = as_method(method)
+    method.check_geometry(geometry)
+    if method.needs_resolution(geometry):
+        raise ValueError(f"{type(method).__name__} sizes its grid from the inputs, which a fit varies: resolve it "
+                         f"once over the data, method = method.resolve(initial, layer, radius=..., "
+                         f"loads=measured_loads, speeds=measured_speeds, geometry=...), or give a "
+                         f"jr.FixedGrid")
+    return method
+
+
+def _host_functions(problem, model, data, progress):
+    """Residual and Jacobian in the unconstrained coordinates ``u`` for the least-squares
+    driver. Each point is evaluated once, residual and Jacobian together (``k`` forward-mode
+    tangents cost little more than the residual, and scipy asks for the Jacobian at every
+    accepted point right after its residual). The Jacobian call (made at accepted points)
+    reports progress."""
+    params, names = problem.params, problem.params.names_flat()
+    t_start, last, count = time.perf_counter(), {}, [0]
 
     def evaluate(u):
-        logp, dl = params.logp_and_slope(u)
-        r, Jl = bundle.res_jac(jnp.asarray(logp), data)
-        r, Jl = np.asarray(r), np.asarray(Jl)
+        if "u" not in last or not np.array_equal(last["u"], u):
+            logp, slope = params.logp_and_slope(u)
+            r, Jl = (np.asarray(a) for a in _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem))
+            last.update(u=np.array(u), logp=logp, slope=slope, r=r, J_logp=Jl)
+        return last
+
+    def residuals(u):
+        return evaluate(u)["r"]
+
+    def jacobian(u):
+        e = evaluate(u)
         if progress:
             count[0] += 1
-            values = dict(zip(names, np.exp(np.asarray(logp)).tolist()))
-            elapsed, chi2 = time.perf_counter() - t_start, float(r @ r)
+            values = dict(zip(names, np.exp(e["logp"]).tolist()))
+            elapsed, chi2 = time.perf_counter() - t_start, float(e["r"] @ e["r"])
             if callable(progress):
                 progress(count[0], chi2, values, elapsed)
             else:
                 shown = "  ".join(f"{n}={v:.5g}" for n, v in values.items())
                 print(f"fit: evaluation {count[0]:3d}  chi2 {chi2:.6g}  {shown}  ({elapsed:.1f} s)", flush=True)
-        return r, Jl * dl[None, :], Jl
+        return e["J_logp"] * e["slope"][None, :]
 
+    def at(u):
+        """``(r, dr/dlogp)`` at ``u``."""
+        e = evaluate(u)
+        return e["r"], e["J_logp"]
+
+    return residuals, jacobian, at
+
+
+def _multistart(problem, model, data, *, solver, n_starts, spread_decades, seed, max_steps, rtol, progress):
+    """Least squares from ``initial`` and ``n_starts - 1`` log-uniform draws around it; returns
+    ``(u, converged, cost, r, dr/dlogp)`` of the best start and ``[(cost, converged), ...]``."""
+    params = problem.params
+    residuals, jacobian, at = _host_functions(problem, model, data, progress)
     rng = np.random.default_rng(seed)
-    logp0 = np.asarray(params.logp0())
-    starts = []
-    best = None
+    logp0 = params.logp0(model)
+    starts, best = [], None
     for i in range(max(1, int(n_starts))):
         lp = logp0 if i == 0 else logp0 + rng.uniform(-0.5, 0.5, size=logp0.shape) * spread_decades * math.log(10)
-        u0 = np.asarray(params.u_from_logp(jnp.asarray(lp)))
-        if solver == "lm":
-            u, ok, r_u, J_u, _ = _levenberg_marquardt(evaluate, u0, max_steps, rtol)
-        else:
-            # optax's L-BFGS mixes int32 and int64 internally: trace it with standard promotion
-            with jax.numpy_dtype_promotion("standard"):
-                u, ok = bundle.lbfgs(jnp.asarray(u0), data)
-            u = np.asarray(u)
-            r_u, _, J_u = evaluate(u)
-        cost = 0.5 * float(r_u @ r_u)
-        ok = bool(ok) and math.isfinite(cost)
-        starts.append((cost, ok))
-        if best is None or (math.isfinite(cost) and cost < best[0]):
-            best = (cost, ok, u, r_u, J_u)
-    cost, converged, u, r, J = best
-    logp = jnp.asarray(params.logp_and_slope(u)[0])
-    dof = max(n_res - k, 1)
-    chi2 = float(np.sum(r**2))
-    s2 = 1.0 if absolute_sigma else chi2 / dof
-    JTJ = J.T @ J
-    cov = np.linalg.pinv(JTJ) * s2
+        sol = least_squares(residuals, jacobian, params.u_from_logp(lp), method=solver, rtol=rtol,
+                            max_evaluations=max_steps)
+        ok = sol.converged and math.isfinite(sol.cost)
+        starts.append((sol.cost, ok))
+        if best is None or (math.isfinite(sol.cost) and sol.cost < best[0]):
+            best = (sol.cost, ok, sol.x)
+    cost, converged, u = best
+    r, J = at(u)
+    return u, converged, cost, r, J, starts
+
+
+def _uncertainty(params, logp, r, J, absolute_sigma):
+    """Gauss-Newton covariance of the log-parameters and the per-parameter values, standard
+    errors (delta method) and 95 % intervals (log-normal)."""
+    dof = max(len(r) - params.size, 1)
+    s2 = 1.0 if absolute_sigma else float(np.sum(r**2)) / dof
+    cov = np.linalg.pinv(J.T @ J) * s2
     sd_log = np.sqrt(np.clip(np.diag(cov), 0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd_log, sd_log)
-    material, lay, sh = params.build(logp)
-
-    flat_names = params.names_flat()
-    p_flat = np.exp(np.asarray(logp))
     values, stderr, ci = {}, {}, {}
     i = 0
     for n, size, shape in zip(params.free, params.sizes, params.shapes):
-        sl_ = slice(i, i + size)
-        values[n] = p_flat[sl_].reshape(shape)
-        stderr[n] = (p_flat[sl_] * sd_log[sl_]).reshape(shape)
-        ci[n] = (np.exp(np.asarray(logp)[sl_] - Z95 * sd_log[sl_]).reshape(shape),
-                 np.exp(np.asarray(logp)[sl_] + Z95 * sd_log[sl_]).reshape(shape))
+        lp, sd = logp[i : i + size], sd_log[i : i + size]
+        values[n] = np.exp(lp).reshape(shape)
+        stderr[n] = (np.exp(lp) * sd).reshape(shape)
+        ci[n] = (np.exp(lp - Z95 * sd).reshape(shape), np.exp(lp + Z95 * sd).reshape(shape))
         i += size
+    return values, stderr, ci, cov, corr, sd_log
 
+
+def _diagnostics(names, r, J, corr, sd_log, have_sigma):
+    """Misfit and identifiability messages (a chi^2 test with measured sigma; rank deficiency;
+    poorly constrained and almost fully correlated parameters)."""
     messages = []
-    have_sigma = (rolling is None or rolling.sigma is not None) and (dma is None or dma_sigma is not None)
-    sigma_mode = ("absolute" if absolute_sigma else "scaled") if have_sigma else "relative"
+    chi2, dof = float(np.sum(r**2)), max(len(r) - len(names), 1)
     if have_sigma and dof > 0:
         from scipy.stats import chi2 as chi2_dist
 
@@ -833,36 +577,117 @@ def fit_material(
     if sv[-1] <= 1e-10 * sv[0]:
         messages.append("the Jacobian is (numerically) rank deficient: some parameter combination is not "
                         "determined by the data")
-    for j, n in enumerate(flat_names):
+    for j, n in enumerate(names):
         if not np.isfinite(sd_log[j]) or sd_log[j] > 0.5:
             hint = (" (for rolling-resistance data: include speeds around the resistance peak, V ~ contact "
                     "radius/tau, or add DMA data)" if n in ("tau", "f") else "")
             messages.append(f"parameter {n!r} is poorly constrained: relative standard error "
                             f"{100 * sd_log[j]:.0f} %{hint}")
-    for a in range(len(flat_names)):
-        for b in range(a + 1, len(flat_names)):
+    for a in range(len(names)):
+        for b in range(a + 1, len(names)):
             if np.isfinite(corr[a, b]) and abs(corr[a, b]) > 0.995:
-                messages.append(f"parameters {flat_names[a]!r} and {flat_names[b]!r} are almost fully correlated "
+                messages.append(f"parameters {names[a]!r} and {names[b]!r} are almost fully correlated "
                                 f"({corr[a, b]:+.4f}): the data constrain only a combination of them")
+    return messages
+
+
+def fit_material(
+    rolling: RollingData | None = None,
+    dma: DMAData | None = None,
+    *,
+    initial,
+    layer=None,
+    radius=None,
+    geometry="sphere",
+    method="direct",
+    free=None,
+    shift=None,
+    bounds=None,
+    solver="trf",
+    n_starts=1,
+    spread_decades=2.0,
+    seed=0,
+    absolute_sigma=False,
+    max_steps=500,
+    rtol=1e-10,
+    jac_step=None,
+    progress=False,
+) -> FitResult:
+    """Identify viscoelastic parameters from rolling resistance and/or DMA data.
+
+    Args:
+        rolling: :class:`RollingData` (speeds [m/s], loads [N or N/m], measured ``R_r`` [N or
+            N/m], optional sigma), or ``None`` for a DMA-only fit.
+        dma: :class:`DMAData` to fit jointly (or alone); its optional ``storage_sigma`` and
+            ``loss_sigma`` weight the residuals (default relative).
+        initial: initial material (:class:`StandardLinearSolid` or :class:`GeneralizedMaxwell`);
+            the fitted material has the same type.
+        layer: :class:`jaxroll.Layer` (required with rolling data; ``"H"`` may be free).
+        radius: roller radius [m] (required with rolling data).
+        geometry, method: passed to :func:`jaxroll.rolling_resistance` (a method object or a
+            shortcut string; default ``"direct"``). The material parameters are traced during
+            the fit, so a method with a grid must be resolved first
+            (``jr.Full().resolve(initial, layer, radius=..., loads=..., speeds=...)`` or a
+            :class:`jaxroll.FixedGrid`); the full model is then evaluated on the table of the
+            distinct speeds x loads (:func:`jaxroll.rolling_resistance_grid`). For
+            multi-parameter full-model fits use ``jr.Full(grid, edge_smoothing=0.25)`` (0.25 at
+            the paper's grid, 0.5 on coarser ones): the exact discrete R_r wiggles with the
+            contact set and the iteration stalls on it (fitting/README.md).
+        free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``);
+            default: the material's own parameters (``G0, tau, f`` for a standard linear solid,
+            ``G_inf, G, tau`` for a generalized Maxwell material).
+        shift: WLF/Arrhenius shift for DMA data at several temperatures.
+        bounds: ``{name: (lo, hi)}`` physical bounds.
+        solver: ``"trf"`` (trust-region reflective, default) or ``"lm"`` (MINPACK
+            Levenberg-Marquardt), both :func:`scipy.optimize.least_squares` on the compiled
+            residual and Jacobian.
+        n_starts: number of starts; the first is ``initial``, the others are drawn
+            log-uniformly within ``spread_decades`` decades around it (seeded by ``seed``).
+        absolute_sigma: treat sigma as absolute (covariance not rescaled by chi^2).
+        max_steps: cap on residual evaluations per start; rtol: relative tolerance on the
+            cost reduction and the step, absolute on the gradient.
+        jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
+            differences in the log-parameters with step ``h``, e.g. for models that are only
+            piecewise smooth at a fixed resolution (a full model without ``edge_smoothing``:
+            the contact area changes in whole cells; see fitting/README.md for what this does
+            and does not fix).
+        progress: print one line per residual+Jacobian evaluation (evaluation count, chi^2,
+            parameters, elapsed time) for long fits (a full model: seconds per evaluation), or a
+            callable ``progress(count, chi2, params_dict, seconds)``.
+
+    The residual and Jacobian are compiled once per static configuration (free parameters,
+    bounds, method, geometry, radius, data shapes): repeated fits of data of the same shape
+    do not recompile.
+
+    Returns:
+        :class:`FitResult`.
+    """
+    if solver not in ("trf", "lm"):
+        raise ValueError(f"solver must be 'trf' or 'lm', got {solver!r}")
+    free = _DEFAULT_FREE[type(initial)] if free is None and type(initial) in _DEFAULT_FREE else free
+    method = _check_problem(rolling, dma, initial, free or (), layer, radius, geometry, method, shift)
+    model = (initial, layer, shift)  # arrays traced, Python floats (a static rho = 0) part of the key
+    params = _Params.of(model, free, bounds)
+    n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
+    if n_res < params.size:
+        raise ValueError(f"{n_res} residuals cannot determine {params.size} parameters")
+    problem = _Problem(params, None if rolling is None else float(radius), geometry, method,
+                       None if jac_step is None else float(jac_step))
+    u, converged, cost, r, J, starts = _multistart(
+        problem, model, _data_arrays(rolling, dma, method), solver=solver, n_starts=n_starts,
+        spread_decades=spread_decades, seed=seed, max_steps=max_steps, rtol=rtol, progress=progress)
+    logp = params.logp_and_slope(u)[0]
+    values, stderr, ci, cov, corr, sd_log = _uncertainty(params, logp, r, J, absolute_sigma)
+    names = params.names_flat()
+    have_sigma = ((rolling is None or rolling.sigma is not None)
+                  and (dma is None or dma.storage_sigma is not None))
+    messages = _diagnostics(names, r, J, corr, sd_log, have_sigma)
     for m in messages:
         warnings.warn(m, MisfitWarning if m.startswith("reduced chi^2") else IdentifiabilityWarning, stacklevel=2)
-
-    return FitResult(
-        material=material,
-        layer=lay,
-        shift=sh,
-        params=values,
-        stderr=stderr,
-        ci95=ci,
-        covariance=cov,
-        correlation=corr,
-        names=flat_names,
-        converged=bool(converged),
-        residuals=np.asarray(r),
-        cost=float(cost),
-        reduced_chi2=chi2 / dof,
-        starts=starts,
-        warnings=messages,
-        jacobian=J,
-        sigma_mode=sigma_mode,
-    )
+    material, lay, sh = params.build(jnp.asarray(logp), model)
+    dof = max(n_res - params.size, 1)
+    return FitResult(material=material, layer=lay, shift=sh, params=values, stderr=stderr, ci95=ci, covariance=cov,
+                     correlation=corr, names=names, converged=bool(converged), residuals=np.asarray(r),
+                     cost=float(cost), reduced_chi2=float(np.sum(r**2)) / dof, starts=starts, warnings=messages,
+                     jacobian=J,
+                     sigma_mode=("absolute" if absolute_sigma else "scaled") if have_sigma else "relative")

@@ -16,7 +16,7 @@ Pipeline (all SI: angular frequency [rad/s], shear moduli [Pa], temperatures [K]
    :func:`master_curve`.
 3. :func:`fit_prony`: non-negative least squares of a generalized Maxwell series on
    log-spaced relaxation times (storage and loss jointly, relative residuals), optionally
-   refined in JAX (Levenberg-Marquardt on ``log G_i, log tau_i``, jitted residual Jacobian).
+   refined in JAX (least squares on ``log G_i, log tau_i``, jitted residual and Jacobian).
 4. :func:`write_abaqus`, :func:`write_ansys`, :func:`save_material` / :func:`load_material`.
 
 Shift-factor convention (jaxroll's): the material at ``T`` behaves as the reference material
@@ -25,11 +25,9 @@ at ``omega a_T``; ``log10 a_T > 0`` below the reference temperature.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 import math
-import re
 import warnings
 from pathlib import Path
 
@@ -37,7 +35,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .fit import Z95, DataWarning
+from ._lsq import least_squares
+from .fit import Z95
+from .io import UNITS, Column, DataWarning, read_table, write_table
 from .material import GAS_CONSTANT, WLF, Arrhenius, GeneralizedMaxwell
 
 __all__ = [
@@ -111,33 +111,18 @@ class DMASweeps:
         return self.omega[m][order], self.storage[m][order], self.loss[m][order]
 
 
-_FREQ_UNITS = {"hz": 2 * math.pi, "1/s": 2 * math.pi, "rad/s": 1.0}
-_MOD_UNITS = {"pa": 1.0, "kpa": 1e3, "mpa": 1e6, "gpa": 1e9}
-_TEMP_UNITS = {"c": 273.15, "°c": 273.15, "degc": 273.15, "deg c": 273.15, "k": 0.0}
-_ROLES = {  # normalised column name -> (role, tension?)
-    **{n: ("frequency", None) for n in ("f", "freq", "frequency", "omega", "angular_frequency")},
-    **{n: ("storage", True) for n in ("e_stor", "e'", "e_storage", "estor", "storage_modulus_e")},
-    **{n: ("loss", True) for n in ("e_loss", "e''", "eloss", "loss_modulus_e")},
-    **{n: ("storage", False) for n in ("g_stor", "g'", "g_storage", "gstor", "storage_modulus")},
-    **{n: ("loss", False) for n in ("g_loss", "g''", "gloss", "loss_modulus")},
-    **{n: ("temperature", None) for n in ("t", "temp", "temperature")},
-    **{n: ("set", None) for n in ("set", "set_id", "segment", "step")},
-}
-
-
-def _split_name(text):
-    """``'E_stor [MPa]'`` / ``'E_stor (MPa)'`` -> ``('e_stor', 'MPa')``; ``'f'`` -> ``('f', None)``."""
-    m = re.fullmatch(r"\s*(.*?)\s*[\[(]\s*(.*?)\s*[\])]\s*", text)
-    name, unit = (m.group(1), m.group(2)) if m else (text.strip(), None)
-    return name.lower().replace(" ", "_"), unit
-
-
-def _is_number(text):
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
+def _sweep_columns():
+    """The columns of a raw DMA file (names case-insensitive)."""
+    mod, opt = UNITS["modulus"], dict(required=False, positive=True)
+    return [
+        Column("frequency", UNITS["frequency"], aliases=("f", "freq", "omega", "angular_frequency"), **opt),
+        Column("E_storage", mod, aliases=("e_stor", "e'", "estor", "storage_modulus_e"), **opt),
+        Column("E_loss", mod, aliases=("e_loss", "e''", "eloss", "loss_modulus_e"), **opt),
+        Column("G_storage", mod, aliases=("g_stor", "g'", "gstor", "storage_modulus"), **opt),
+        Column("G_loss", mod, aliases=("g_loss", "g''", "gloss", "loss_modulus"), **opt),
+        Column("temperature", UNITS["temperature"], aliases=("t", "temp"), blank=True, **opt),
+        Column("set", None, aliases=("set_id", "segment", "step"), required=False),
+    ]
 
 
 def _cluster_temperatures(T, tol=1.0):
@@ -177,84 +162,30 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     """
     if not (0.0 <= poisson <= 0.5):
         raise ValueError(f"poisson must be in [0, 0.5]; got {poisson}")
-    path = Path(path)
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = [(i + 1, r) for i, r in enumerate(csv.reader(fh))
-                if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
-    if len(rows) < 2:
-        raise ValueError(f"{path}: a DMA CSV needs a header row of names and data rows")
-    hline, header = rows[0]
-    names, units = zip(*[_split_name(h) for h in header])
-    units = list(units)
-    body = rows[1:]
-    uline, first = body[0]
-    if not any(_is_number(c) for c in first if c.strip()):  # a units row
-        if len(first) < len(header):
-            raise ValueError(f"{path}, line {uline}: the units row has {len(first)} entries for {len(header)} columns")
-        units = [u if u is not None else (first[j].strip() or None) for j, u in enumerate(units)]
-        body = body[1:]
-    elif any(not _is_number(c) for c in first if c.strip()):
-        raise ValueError(f"{path}, line {uline}: mixes numbers and text; expected a units row or a data row")
-    if not body:
-        raise ValueError(f"{path}: no data rows")
-    cols, unused = {}, []
-    tension = set()
-    for j, n in enumerate(names):
-        role = _ROLES.get(n)
-        if role is None:
-            unused.append(header[j].strip())
-            continue
-        if role[0] in cols:
-            raise ValueError(f"{path}, line {hline}: two columns give the {role[0]} ({header[cols[role[0]]].strip()!r} "
-                             f"and {header[j].strip()!r})")
-        cols[role[0]] = j
-        if role[1] is not None:
-            tension.add(role[1])
-    missing = [r for r in ("frequency", "storage", "loss", "temperature") if r not in cols]
-    if missing:
-        raise ValueError(f"{path}, line {hline}: no column for {missing}; the header has {[h.strip() for h in header]} "
-                         f"(expected e.g. f, E_stor, E_loss, T[, Set] or f, G_stor, G_loss, T)")
+    t = read_table(path, _sweep_columns(), units_row="optional", kind="DMA", case_sensitive=False)
+    path = t.path
+    tension = {m for m in ("E", "G") if f"{m}_storage" in t or f"{m}_loss" in t}
     if len(tension) > 1:
-        raise ValueError(f"{path}, line {hline}: storage and loss moduli mix tension (E) and shear (G)")
-    if unused:
-        warnings.warn(f"{path}: column(s) {unused} not used", DataWarning, stacklevel=2)
-    scales = {}
-    for role, table, hint in (("frequency", _FREQ_UNITS, "Hz or rad/s"), ("storage", _MOD_UNITS, "Pa, kPa, MPa, GPa"),
-                              ("loss", _MOD_UNITS, "Pa, kPa, MPa, GPa"), ("temperature", _TEMP_UNITS, "C or K")):
-        j = cols[role]
-        u = units[j]
-        if u is None:
-            raise ValueError(f"{path}, line {hline}: column {header[j].strip()!r} has no unit; give a units row or "
-                             f"write the unit in the name, e.g. '{header[j].strip()} [{hint.split(',')[0].split()[0]}]'")
-        if u.lower() not in table:
-            raise ValueError(f"{path}: unit {u!r} of column {header[j].strip()!r} not understood; expected {hint}")
-        scales[role] = table[u.lower()]
-
-    def column(role, *, allow_blank=False):
-        j = cols[role]
-        out = np.full(len(body), np.nan)
-        for k, (line, r) in enumerate(body):
-            text = r[j].strip() if j < len(r) else ""
-            if not text and allow_blank:
-                continue
-            try:
-                v = float(text)
-            except ValueError:
-                raise ValueError(f"{path}, line {line}: {header[j].strip()} = {text!r} is not a number") from None
-            if not math.isfinite(v) or (role != "temperature" and role != "set" and v <= 0):
-                raise ValueError(f"{path}, line {line}: {header[j].strip()} = {text} must be finite"
-                                 + ("" if role in ("temperature", "set") else " and positive"))
-            out[k] = v
-        return out
-
-    omega = column("frequency") * scales["frequency"]
-    factor = 1.0 / (2.0 * (1.0 + poisson)) if tension == {True} else 1.0
-    storage = column("storage") * scales["storage"] * factor
-    loss = column("loss") * scales["loss"] * factor
-    T = column("temperature", allow_blank="set" in cols) + scales["temperature"]
-    lines = np.array([line for line, _ in body])
-    if "set" in cols:
-        raw_set = column("set")
+        raise ValueError(f"{path}: storage and loss moduli mix tension (E) and shear (G): "
+                         f"{sorted(t.header.values())}")
+    mode = tension.pop() if tension else "G"
+    missing = [r for r, c in (("frequency", "frequency"), ("storage", f"{mode}_storage"), ("loss", f"{mode}_loss"),
+                              ("temperature", "temperature")) if c not in t]
+    if missing:
+        raise ValueError(f"{path}: no column for {missing}; the header has {sorted(t.header.values()) + t.unused} "
+                         f"(expected e.g. f, E_stor, E_loss, T[, Set] or f, G_stor, G_loss, T)")
+    if "set" not in t and np.any(np.isnan(t["temperature"])):
+        k = int(np.argmax(np.isnan(t["temperature"])))
+        raise ValueError(f"{path}, line {t.lines[k]}: missing value in column {t.header['temperature']!r} (without a "
+                         f"Set column every row needs its temperature)")
+    omega = t["frequency"]
+    factor = 1.0 / (2.0 * (1.0 + poisson)) if mode == "E" else 1.0
+    storage = t[f"{mode}_storage"] * factor
+    loss = t[f"{mode}_loss"] * factor
+    T = t["temperature"].copy()
+    lines = t.lines
+    if "set" in t:
+        raw_set = t["set"]
         labels = np.unique(raw_set, return_inverse=True)[1].ravel()
         for s in range(labels.max() + 1):  # temperature per set: fill the blanks
             m = labels == s
@@ -263,16 +194,13 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
             T[m & np.isnan(T)] = np.nanmean(T[m])
     else:
         labels = _cluster_temperatures(T)
-    bad = T <= 0
-    if np.any(bad):
-        raise ValueError(f"{path}, line {lines[bad][0]}: temperature below absolute zero")
     set_T = np.array([T[labels == s].mean() for s in range(labels.max() + 1)])
     order = np.argsort(set_T)
     if np.any(np.diff(set_T[order]) <= 0):
         raise ValueError(f"{path}: two sets have the same mean temperature")
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
-    source = f"tension, nu = {poisson:g}" if tension == {True} else "shear"
+    source = f"tension, nu = {poisson:g}" if mode == "E" else "shear"
     return DMASweeps(omega, storage, loss, T, rank[labels], set_T[order], source)
 
 
@@ -510,8 +438,6 @@ def fit_wlf(shifts: ShiftFactors) -> ShiftFit:
     ``C2``, then :func:`scipy.optimize.least_squares` on both); the covariance comes from the
     least-squares Jacobian at the optimum, scaled by the residual variance.
     """
-    from scipy.optimize import least_squares
-
     T, y = _others(shifts)
     dT = T - shifts.T_ref
     c2_min = max(-dT.min(), 0.0) + 1e-6
@@ -523,13 +449,16 @@ def fit_wlf(shifts: ShiftFactors) -> ShiftFit:
     def resid(p):
         return -p[0] * dT / (p[1] + dT) - y
 
+    def jac(p):
+        return np.stack([-dT / (p[1] + dT), p[0] * dT / (p[1] + dT) ** 2], axis=1)
+
     grid = c2_min + np.logspace(-1, 4, 400)
     costs = [float(np.sum(resid([c1_given(c2), c2]) ** 2)) for c2 in grid]
     c2 = float(grid[int(np.argmin(costs))])
-    sol = least_squares(resid, [c1_given(c2), c2], bounds=([-np.inf, c2_min], [np.inf, np.inf]), x_scale="jac",
-                        xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    sol = least_squares(resid, jac, [c1_given(c2), c2], bounds=([-np.inf, c2_min], [np.inf, np.inf]), x_scale="jac",
+                        rtol=1e-14)
     C1, C2 = sol.x
-    return _shift_fit(WLF(C1=C1, C2=C2, T_ref=shifts.T_ref), ("C1", "C2"), sol.x, sol.jac, sol.fun)
+    return _shift_fit(WLF(C1=C1, C2=C2, T_ref=shifts.T_ref), ("C1", "C2"), sol.x, sol.jacobian, sol.residuals)
 
 
 def fit_arrhenius(shifts: ShiftFactors) -> ShiftFit:
@@ -664,27 +593,15 @@ def _prony_residuals(p, logw, log_gs, log_gl, log_tau_range, weight):
 _prony_jacobian = jax.jit(jax.jacfwd(_prony_residuals))
 
 
-def _refine(p, args, max_steps=200):
-    """Levenberg-Marquardt on the jitted residual and its forward-mode Jacobian."""
-    r = np.asarray(_prony_residuals(jnp.asarray(p), *args))
-    cost, mu = float(r @ r), 1e-3
-    for _ in range(max_steps):
-        J = np.asarray(_prony_jacobian(jnp.asarray(p), *args))
-        A, g = J.T @ J, J.T @ r
-        improved = False
-        for _ in range(30):
-            h = np.linalg.solve(A + mu * np.diag(np.diag(A) + 1e-12), -g)
-            pn = p + np.clip(h, -2.0, 2.0)
-            rn = np.asarray(_prony_residuals(jnp.asarray(pn), *args))
-            cn = float(rn @ rn)
-            if np.isfinite(cn) and cn < cost:
-                improved = cost - cn > 1e-12 * cost
-                p, r, cost, mu = pn, rn, cn, max(mu / 3.0, 1e-12)
-                break
-            mu *= 4.0
-        if not improved:
-            break
-    return p
+def _refine(p, args):
+    """Levenberg-Marquardt from ``p`` (MINPACK, scaled by the Jacobian's columns: moduli and
+    times differ in sensitivity by decades) on the jitted residual and its forward-mode
+    Jacobian. At most 300 evaluations: by then the cost is flat to ~1e-6 relative, and what
+    remains moves terms that carry almost no modulus along a valley towards ``G_i -> 0``."""
+    sol = least_squares(lambda x: _prony_residuals(jnp.asarray(x), *args),
+                        lambda x: _prony_jacobian(jnp.asarray(x), *args), p, method="lm", rtol=1e-10,
+                        max_evaluations=300, x_scale="jac")
+    return sol.x
 
 
 def fit_prony(master: MasterCurve, *, n_terms=None, refine=True, weights=None) -> PronyFit:
@@ -697,7 +614,7 @@ def fit_prony(master: MasterCurve, *, n_terms=None, refine=True, weights=None) -
     ``(G'_fit - G'_meas)/G'_meas`` and ``(G''_fit - G''_meas)/G''_meas`` (a log-weighted design:
     every decade of modulus counts alike). Terms NNLS sets to zero are dropped (the number of
     terms is minimised). With ``refine``, the kept terms' moduli and times are then refined
-    together by Levenberg-Marquardt on ``log G'``, ``log G''`` in ``log G_i`` and the times
+    together by least squares (:func:`scipy.optimize.least_squares`) on ``log G'``, ``log G''`` in ``log G_i`` and the times
     (positive by construction, kept within half a decade of the data's range: a term beyond it
     would be fitted to the noise at the curve's ends with nothing to bound its modulus, e.g. an
     unphysical glassy modulus); residual and Jacobian compiled with JAX.
@@ -814,16 +731,10 @@ def save_material(path, material: GeneralizedMaxwell, shift: WLF | Arrhenius | N
                                                "activation_energy": "J/mol"}, "info": info or {}}
         path.write_text(json.dumps(payload, indent=2) + "\n")
     elif path.suffix.lower() == ".csv":
-        with open(path, "w", newline="") as fh:
-            fh.write("# jaxroll GeneralizedMaxwell (shear); row tau = inf holds G_inf\n")
-            if shift_d is not None:
-                fh.write("# shift " + json.dumps(shift_d) + "\n")
-            w = csv.writer(fh)
-            w.writerow(["tau", "G"])
-            w.writerow(["s", "Pa"])
-            w.writerow(["inf", repr(float(material.G_inf))])
-            for t, g in zip(tau, G):
-                w.writerow([repr(t), repr(g)])
+        comments = ["jaxroll GeneralizedMaxwell (shear); row tau = inf holds G_inf"]
+        comments += [] if shift_d is None else ["shift " + json.dumps(shift_d)]
+        write_table(path, {"tau": [math.inf, *tau], "G": [float(material.G_inf), *G]}, ["s", "Pa"],
+                    comments=comments)
     else:
         raise ValueError(f"save_material: {path.name}: use a .json or .csv file")
 
@@ -838,21 +749,12 @@ def load_material(path):
         mat = GeneralizedMaxwell(G_inf=d["G_inf"], G=np.asarray(d["G"], float), tau=np.asarray(d["tau"], float))
         s = d.get("shift")
     elif path.suffix.lower() == ".csv":
-        s, rows = None, []
-        with open(path, newline="") as fh:
-            for line_no, line in enumerate(fh, 1):
-                if line.startswith("# shift "):
-                    s = json.loads(line[len("# shift "):])
-                elif line.strip() and not line.startswith("#"):
-                    rows.append((line_no, line.strip().split(",")))
-        if len(rows) < 3 or [c.strip() for c in rows[0][1]] != ["tau", "G"] or rows[2][1][0].strip() != "inf":
-            raise ValueError(f"{path}: expected columns tau, G, a units row, then the row 'inf, G_inf'")
-        try:
-            vals = np.array([[float(c) for c in r] for _, r in rows[3:]]).reshape(-1, 2)
-            G_inf = float(rows[2][1][1])
-        except ValueError as err:
-            raise ValueError(f"{path}: {err}") from None
-        mat = GeneralizedMaxwell(G_inf=G_inf, G=vals[:, 1], tau=vals[:, 0])
+        t = read_table(path, [Column("tau", UNITS["time"], positive=True, finite=False),
+                              Column("G", UNITS["modulus"], positive=True)], kind="material")
+        if not np.isinf(t["tau"][0]) or np.any(np.isinf(t["tau"][1:])):
+            raise ValueError(f"{path}, line {t.lines[0]}: expected the row 'inf, G_inf' first, then finite tau")
+        s = next((json.loads(c[len("shift "):]) for c in t.comments if c.startswith("shift ")), None)
+        mat = GeneralizedMaxwell(G_inf=float(t["G"][0]), G=t["G"][1:], tau=t["tau"][1:])
     else:
         raise ValueError(f"load_material: {path.name}: use a .json or .csv file")
     shift = None
@@ -894,16 +796,15 @@ class ResistanceMap:
         known) the name of the point's :data:`jaxroll.RESULTS` code."""
         from .result import RESULTS
 
-        extra = self.result is not None
-        with open(path, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid"] + ["result"] * extra)
-            w.writerow(["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"] + ["-"] * extra)
-            for i, T in enumerate(self.temperatures):
-                for j, V in enumerate(self.speeds):
-                    w.writerow([f"{T:.6g}", f"{V:.6g}", f"{self.value[i, j]:.8g}", f"{self.dR_dT[i, j]:.6g}",
-                                f"{self.dR_dH[i, j]:.6g}", int(self.valid[i, j])]
-                               + [RESULTS.names[int(self.result[i, j])]] * extra)
+        T, V = (a.ravel() for a in np.meshgrid(self.temperatures, self.speeds, indexing="ij"))
+        cols = {"temperature": T, "speed": V, "rolling_resistance": np.ravel(self.value), "dR_dT": np.ravel(self.dR_dT),
+                "dR_dH": np.ravel(self.dR_dH), "valid": np.ravel(self.valid).astype(int)}
+        units = ["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"]
+        if self.result is not None:
+            cols["result"] = [RESULTS.names[int(c)] for c in np.ravel(self.result)]
+            units.append("-")
+        write_table(path, cols, units, formats={"temperature": ".6g", "speed": ".6g", "rolling_resistance": ".8g",
+                                                "dR_dT": ".6g", "dR_dH": ".6g"})
 
 
 def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",

@@ -31,7 +31,6 @@ Entry points: :func:`run` (compute, returns a :class:`Reproduction`), :func:`wri
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
 import os
@@ -44,6 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .io import write_table
 from .result import RESULTS
 
 __all__ = ["Case", "CASES", "Settings", "FULL", "QUICK", "PAPER_TIMES", "PAPER_FACTORS", "Reproduction", "run",
@@ -440,28 +440,29 @@ def write_outputs(rep: Reproduction, out) -> list:
     written += [out / n for n in extra]
 
     # CSV of all numbers
-    with open(out / "results.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["case", "H", "R", "method", "load", "speed", "rolling_resistance", "reference_full3d",
-                    "relative_error", "valid", "result"])
-        w.writerow(["", "m", "m", "", "N", "m/s", "N", "N", "-", "-", "-"])
-        for cr in rep.cases:
-            items = [("full", cr.reference)] + list(cr.methods.items())
-            for m, r in items:
-                for i, P in enumerate(cr.loads):
-                    for j, V in enumerate(cr.speeds):
-                        ref = cr.reference.values[i, j]
-                        w.writerow([cr.case.key, f"{cr.case.H:g}", f"{cr.case.R:g}", m, f"{P:.8g}", f"{V:.8g}",
-                                    f"{r.values[i, j]:.8g}", f"{ref:.8g}", f"{r.values[i, j] / ref - 1:.6g}",
-                                    int(r.status[i, j] == 0), RESULTS.names[int(r.status[i, j])]])
-    with open(out / "timing.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["method", "run_per_reference_case", "single_run", "compile", "speed_factor", "points_measured",
-                    "paper_reference_case", "paper_speed_factor"])
-        w.writerow(["", "s", "s", "s", "-", "", "s", "-"])
-        for name, t in rep.timing().items():
-            w.writerow([name, f"{t['per_case_s']:.6g}", f"{t['single_s']:.6g}", f"{t['compile_s']:.6g}",
-                        f"{t['factor']:.6g}", t["points"], PAPER_TIMES[name], PAPER_FACTORS.get(name, 1)])
+    rows = []
+    for cr in rep.cases:
+        for m, r in [("full", cr.reference)] + list(cr.methods.items()):
+            for i, P in enumerate(cr.loads):
+                for j, V in enumerate(cr.speeds):
+                    ref = cr.reference.values[i, j]
+                    rows.append((cr.case.key, f"{cr.case.H:g}", f"{cr.case.R:g}", m, P, V, r.values[i, j], ref,
+                                 f"{r.values[i, j] / ref - 1:.6g}", int(r.status[i, j] == 0),
+                                 RESULTS.names[int(r.status[i, j])]))
+    names = ["case", "H", "R", "method", "load", "speed", "rolling_resistance", "reference_full3d", "relative_error",
+             "valid", "result"]
+    write_table(out / "results.csv", dict(zip(names, zip(*rows))) if rows else dict.fromkeys(names, ()),
+                ["", "m", "m", "", "N", "m/s", "N", "N", "-", "-", "-"],
+                formats=".8g")
+    timing = rep.timing()
+    write_table(out / "timing.csv",
+                {"method": list(timing), **{col: [f"{t[key]:.6g}" for t in timing.values()] for col, key in
+                                            (("run_per_reference_case", "per_case_s"), ("single_run", "single_s"),
+                                             ("compile", "compile_s"), ("speed_factor", "factor"))},
+                 "points_measured": [t["points"] for t in timing.values()],
+                 "paper_reference_case": [PAPER_TIMES[n] for n in timing],
+                 "paper_speed_factor": [PAPER_FACTORS.get(n, 1) for n in timing]},
+                ["", "s", "s", "s", "-", "", "s", "-"])
     written += [out / "results.csv", out / "timing.csv"]
 
     # report

@@ -90,7 +90,7 @@ def test_reader_variants(tmp_path):
 @pytest.mark.parametrize("content, match", [
     ("f,E_stor,E_loss,T\n0.1,1,1,20\n", "has no unit"),
     ("f,E_stor,E_loss,T\nHz,MPa,MPa,C\n0.1,1,x,20\n", "line 3: E_loss = 'x' is not a number"),
-    ("f,E_stor,E_loss,T\nHz,MPa,MPa,C\n0.1,1,-2,20\n", "line 3: E_loss = -2 must be finite and positive"),
+    ("f,E_stor,E_loss,T\nHz,MPa,MPa,C\n0.1,1,-2,20\n", "line 3: E_loss must be positive, got -2 MPa"),
     ("f,E_stor,G_loss,T\nHz,MPa,MPa,C\n0.1,1,1,20\n", "mix tension"),
     ("f,E_stor,E_loss\nHz,MPa,MPa\n0.1,1,1\n", r"no column for \['temperature'\]"),
     ("f,E_stor,E_loss,T\nHz,bar,MPa,C\n0.1,1,1,20\n", "unit 'bar' of column 'E_stor'"),

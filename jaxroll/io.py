@@ -1,0 +1,326 @@
+"""Tables on disk: one reader and one writer for every CSV file jaxroll reads or writes.
+
+Layout (the common convention of DMA instruments and spreadsheets): a header row of column
+names, a row of units (required, optional, or absent; a unit may also be written in the name,
+``E_stor [MPa]`` or ``E_stor (MPa)``), then one data row per point. Lines starting with ``#``
+are comments (provenance) and blank lines are skipped; a UTF-8 byte-order mark is accepted and
+Windows (CRLF) line ends are read alike. :func:`write_table` writes the same layout with LF line
+ends, so what it writes :func:`read_table` reads back.
+
+Reading happens in two steps:
+
+1. :func:`read_rows`: bytes -> text -> cells, each row with its line number in the file. This
+   is the one place that knows about encodings and delimiters.
+2. :func:`read_table`: cells -> named SI columns, matched against :class:`Column` specs (names,
+   aliases, allowed units with their conversion to SI, positivity, blanks).
+
+Every error is a :class:`ValueError` of one line naming the file, the line, the column and what
+was expected.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import re
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Column", "DataWarning", "RawTable", "Table", "UNITS", "read_rows", "read_table", "write_table"]
+
+
+class DataWarning(UserWarning):
+    """A data file has columns that are not used, or repeated points."""
+
+
+#: Units understood per quantity, as ``unit: (scale, offset)`` with ``SI = value * scale + offset``.
+UNITS = {
+    "speed": {"m/s": (1.0, 0.0), "mm/s": (1e-3, 0.0), "km/h": (1 / 3.6, 0.0)},
+    "force": {"N": (1.0, 0.0), "mN": (1e-3, 0.0), "kN": (1e3, 0.0)},
+    "line_force": {"N/m": (1.0, 0.0), "mN/m": (1e-3, 0.0), "kN/m": (1e3, 0.0)},
+    "frequency": {"Hz": (2 * math.pi, 0.0), "1/s": (2 * math.pi, 0.0), "rad/s": (1.0, 0.0)},
+    "modulus": {"Pa": (1.0, 0.0), "kPa": (1e3, 0.0), "MPa": (1e6, 0.0), "GPa": (1e9, 0.0)},
+    "temperature": {"K": (1.0, 0.0), "degC": (1.0, 273.15), "C": (1.0, 273.15), "°C": (1.0, 273.15),
+                    "deg C": (1.0, 273.15)},
+    "time": {"s": (1.0, 0.0)},
+    "dimensionless": {"-": (1.0, 0.0), "": (1.0, 0.0)},
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Column:
+    """What :func:`read_table` expects of one column.
+
+    Attributes:
+        name: the key of the column in the returned :class:`Table`, and its first accepted name.
+        units: ``{unit: (scale, offset)}`` accepted units and their conversion to SI
+            (``SI = value * scale + offset``); unit names match exactly, else case-insensitively
+            when that is unambiguous. ``None``: a label or count, read as written (any unit
+            text is ignored).
+        required: a file without the column is an error (otherwise the column is optional).
+        aliases: other accepted names in the header.
+        positive: SI values must be > 0 (finite values are always required).
+        finite: values must be finite (``False`` admits ``inf``; ``nan`` is never accepted).
+        blank: empty cells are allowed (read as ``nan``).
+    """
+
+    name: str
+    units: Mapping = dataclasses.field(default_factory=lambda: UNITS["dimensionless"])
+    required: bool = True
+    aliases: tuple = ()
+    positive: bool = False
+    finite: bool = True
+    blank: bool = False
+
+    @property
+    def names(self):
+        return (self.name, *self.aliases)
+
+
+@dataclasses.dataclass(frozen=True)
+class RawTable:
+    """The cells of a table file: ``rows`` is a list of ``(line number, cells)``, comments and
+    blank lines removed; ``comments`` the comment lines' text after ``#``; ``path`` names the
+    file in messages."""
+
+    path: Path
+    rows: list
+    comments: list
+
+
+@dataclasses.dataclass(frozen=True)
+class Table:
+    """Columns read by :func:`read_table`.
+
+    Attributes:
+        columns: ``{name: SI float array}`` of the columns found (by :class:`Column` name).
+        units: ``{name: unit as written in the file}``.
+        header: ``{name: the column's name as written in the file}``.
+        lines: file line number of each data row.
+        unused: header names that matched no column.
+        comments: the comment lines' text (after ``#``).
+        path: the file.
+    """
+
+    columns: dict
+    units: dict
+    header: dict
+    lines: np.ndarray
+    unused: list
+    comments: list
+    path: Path
+
+    def __getitem__(self, name):
+        return self.columns[name]
+
+    def __contains__(self, name):
+        return name in self.columns
+
+    def get(self, name, default=None):
+        return self.columns.get(name, default)
+
+
+def read_rows(path) -> RawTable:
+    """Read a delimited text file into rows of cells with their line numbers.
+
+    UTF-8 with or without a byte-order mark; comma-separated; ``\\n`` or ``\\r\\n`` line ends.
+    Lines whose first cell starts with ``#`` and lines of empty cells are dropped."""
+    path = Path(path)
+    text = path.read_bytes().decode("utf-8-sig")  # utf-8-sig: spreadsheets write a BOM
+    lines = text.splitlines()
+    comments = [line.lstrip()[1:].strip() for line in lines if line.lstrip().startswith("#")]
+    rows = [(i + 1, r) for i, r in enumerate(csv.reader(lines))
+            if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    return RawTable(path, rows, comments)
+
+
+def _split_name(text):
+    """``'E_stor [MPa]'`` / ``'E_stor (MPa)'`` -> ``('E_stor', 'MPa')``; ``'f'`` -> ``('f', None)``."""
+    m = re.fullmatch(r"\s*(.*?)\s*[\[(]\s*(.*?)\s*[\])]\s*", text)
+    return (m.group(1), m.group(2)) if m else (text.strip(), None)
+
+
+def _is_number(text):
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
+
+
+def _conversion(units, unit):
+    """``(scale, offset)`` of ``unit`` in ``units`` (exact, else unique case-insensitive match), or None."""
+    if unit in units:
+        return units[unit]
+    hits = [u for u in units if u.lower() == unit.lower()]
+    return units[hits[0]] if len(hits) == 1 else None
+
+
+def _match_columns(path, hline, header, names, columns, case_sensitive):
+    """``{spec name: file column index}`` and the header names that match no spec; a spec
+    matched twice is an error."""
+    norm = (lambda s: s) if case_sensitive else (lambda s: s.lower().replace(" ", "_"))
+    by_name = {norm(n): c for c in columns for n in c.names}
+    where, unused = {}, []
+    for j, n in enumerate(names):
+        spec = by_name.get(norm(n))
+        if spec is None:
+            unused.append(header[j])
+        elif spec.name in where:
+            first = header[where[spec.name]]
+            if norm(first) == norm(header[j]):
+                raise ValueError(f"{path}, line {hline}: column name(s) {[spec.name]} appear more than once")
+            raise ValueError(f"{path}, line {hline}: two columns give the {spec.name} ({first!r} and {header[j]!r})")
+        else:
+            where[spec.name] = j
+    missing = [c.name for c in columns if c.required and c.name not in where]
+    if missing:
+        raise ValueError(f"{path}, line {hline}: missing column(s) {missing}; the header has {header}")
+    return where, unused
+
+
+def read_table(path, columns: Sequence[Column], *, units_row="required", kind="data", case_sensitive=True,
+               warn_unused=True) -> Table:
+    """Read a CSV table into SI columns.
+
+    Args:
+        path: the file (see the module docstring for the layout).
+        columns: one :class:`Column` per expected column.
+        units_row: ``"required"`` (the second row holds the units), ``"optional"`` (a second row
+            without numbers holds the units; otherwise units come from the names, ``f [Hz]``).
+        kind: what the file holds, for messages (``"DMA"``, ``"rolling-resistance"``).
+        case_sensitive: match column names exactly (``False``: ignoring case and with spaces
+            read as ``_``).
+        warn_unused: warn (:class:`DataWarning`) about header names that match no column.
+
+    Returns:
+        :class:`Table`.
+
+    Raises:
+        ValueError: one line naming the file, line and column of what is wrong and what was
+            expected.
+    """
+    if units_row not in ("required", "optional"):
+        raise ValueError(f"units_row must be 'required' or 'optional'; got {units_row!r}")
+    raw = read_rows(path)
+    path, rows = raw.path, raw.rows
+    need = 3 if units_row == "required" else 2
+    if len(rows) < need:
+        raise ValueError(f"{path}: a {kind} CSV needs a header row of names, "
+                         + ("a row of units " if units_row == "required" else "") + "and data rows")
+    hline, header = rows[0]
+    header = [h.strip() for h in header]
+    names, name_units = zip(*[_split_name(h) for h in header])
+    where, unused = _match_columns(path, hline, header, names, columns, case_sensitive)
+    if unused and warn_unused:
+        expected = [c.name for c in columns if c.required]
+        optional = [c.name for c in columns if not c.required]
+        warnings.warn(f"{path}: column(s) {unused} not used (a {kind} CSV has {expected}"
+                      + (f", optional {optional}" if optional else "") + "); check the spelling",
+                      DataWarning, stacklevel=2)
+
+    # units: a row, or in the names
+    body = rows[1:]
+    uline, first = body[0]
+    units = list(name_units)
+    has_units_row = units_row == "required" or not any(_is_number(c) for c in first if c.strip())
+    if has_units_row:
+        if units_row == "required" and len(first) != len(header) or len(first) < len(header):
+            raise ValueError(f"{path}, line {uline}: the units row has {len(first)} entries for {len(header)} columns")
+        units = [u if u is not None else first[j].strip() for j, u in enumerate(units)]
+        body = body[1:]
+    elif any(not _is_number(c) for c in first if c.strip()):
+        raise ValueError(f"{path}, line {uline}: mixes numbers and text; expected a units row or a data row")
+    if not body:
+        raise ValueError(f"{path}: no data rows")
+    for line, r in body:
+        if len(r) > len(header) and any(c.strip() for c in r[len(header):]):
+            raise ValueError(f"{path}, line {line}: {len(r)} cells for {len(header)} columns (extra values after "
+                             f"{header[-1]!r})")
+
+    out, out_units, out_header = {}, {}, {}
+    for spec in columns:
+        if spec.name not in where:
+            continue
+        j = where[spec.name]
+        unit = units[j]
+        if spec.units is None:
+            conv = (1.0, 0.0)
+        elif unit is None:
+            example = next(iter(spec.units))
+            raise ValueError(f"{path}, line {hline}: column {header[j]!r} has no unit; give a units row or write the "
+                             f"unit in the name, e.g. '{names[j]} [{example}]'")
+        else:
+            conv = _conversion(spec.units, unit)
+        if conv is None:
+            hint = " (is the units row missing?)" if _is_number(unit) else ""
+            raise ValueError(f"{path}, line {uline if has_units_row else hline}: unit {unit!r} of column {header[j]!r} "
+                             f"not understood{hint}; expected one of {sorted(spec.units)}")
+        out[spec.name] = _convert(path, body, j, header[j], spec, unit, conv)
+        out_units[spec.name], out_header[spec.name] = unit, header[j]
+    return Table(out, out_units, out_header, np.array([line for line, _ in body]), unused,
+                 raw.comments, path)
+
+
+def _convert(path, body, j, label, spec, unit, conv):
+    """The SI values of column ``j`` (``nan`` for allowed blanks); errors name the line."""
+    scale, offset = conv
+    values = np.full(len(body), np.nan)
+    for k, (line, r) in enumerate(body):
+        text = r[j].strip() if j < len(r) else ""
+        if not text:
+            if spec.blank:
+                continue
+            raise ValueError(f"{path}, line {line}: missing value in column {label!r}")
+        try:
+            v = float(text)
+        except ValueError:
+            raise ValueError(f"{path}, line {line}: {label} = {text!r} is not a number") from None
+        if math.isnan(v) or (spec.finite and not math.isfinite(v)):
+            raise ValueError(f"{path}, line {line}: {label} is {text!r}; values must be finite")
+        v = v * scale + offset
+        if spec.positive and not v > 0:
+            what = "above absolute zero" if offset else "positive"
+            raise ValueError(f"{path}, line {line}: {label} must be {what}, got {text} {unit or ''}".rstrip())
+        values[k] = v
+    return values
+
+
+def write_table(path, columns: Mapping[str, Sequence], units: Sequence[str], *, formats=None, comments=()):
+    """Write a CSV table: a header row, a units row, one row per point, LF line ends.
+
+    Args:
+        path: the file (overwritten).
+        columns: ``{name: values}``, all of one length; values are numbers or text.
+        units: one unit per column (``"-"`` for none), in ``columns`` order.
+        formats: a format spec for numbers (e.g. ``".8g"``), or ``{name: spec}`` per column;
+            numbers without a spec are written in full precision (``repr``); integers and text
+            as they are.
+        comments: lines written first, each prefixed ``# ``.
+    """
+    names = list(columns)
+    if len(units) != len(names):
+        raise ValueError(f"write_table: {len(units)} units for {len(names)} columns")
+    data = [list(columns[n]) if not isinstance(columns[n], np.ndarray) else columns[n].tolist() for n in names]
+    lengths = {len(d) for d in data}
+    if len(lengths) > 1:
+        raise ValueError(f"write_table: columns of different lengths {dict(zip(names, map(len, data)))}")
+    spec = formats if isinstance(formats, Mapping) else dict.fromkeys(names, formats)
+
+    def cell(x, fmt):
+        if isinstance(x, str) or isinstance(x, (bool, int, np.bool_, np.integer)):
+            return str(int(x)) if isinstance(x, (bool, np.bool_)) else str(x)
+        return format(float(x), fmt) if fmt else repr(float(x))
+
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        for c in comments:
+            fh.write(f"# {c}\n")
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(names)
+        w.writerow(list(units))
+        for row in zip(*data):
+            w.writerow([cell(x, spec.get(n)) for x, n in zip(row, names)])

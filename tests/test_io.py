@@ -1,0 +1,114 @@
+"""The table reader and writer (jaxroll.io): round trips, units rows and units in names with
+their conversion to SI, byte-order mark, CRLF line ends, comments, and one-line messages that
+name the file, line and column. Expected SI values are the unit definitions (1 MPa = 1e6 Pa,
+1 Hz = 2 pi rad/s, 0 degC = 273.15 K), not the reader's output."""
+
+import math
+
+import numpy as np
+import pytest
+
+from jaxroll.io import UNITS, Column, DataWarning, read_rows, read_table, write_table
+
+DMA = [Column("frequency", UNITS["frequency"], positive=True), Column("storage", UNITS["modulus"], positive=True),
+       Column("temperature", UNITS["temperature"], required=False, positive=True)]
+
+
+def test_round_trip_full_precision_and_lf(tmp_path):
+    rng = np.random.default_rng(0)
+    w, g = 10 ** rng.uniform(-3, 3, 7), 10 ** rng.uniform(5, 9, 7)
+    p = tmp_path / "t.csv"
+    write_table(p, {"frequency": w, "storage": g}, ["rad/s", "Pa"], comments=["made by test_io"])
+    raw = p.read_bytes()
+    assert b"\r" not in raw and raw.startswith(b"# made by test_io\nfrequency,storage\nrad/s,Pa\n")
+    t = read_table(p, DMA)
+    np.testing.assert_array_equal(t["frequency"], w)  # repr: exact
+    np.testing.assert_array_equal(t["storage"], g)
+    assert "temperature" not in t and t.comments == ["made by test_io"]
+    assert t.lines.tolist() == list(range(4, 11))
+
+
+def test_write_formats_integers_and_text(tmp_path):
+    p = tmp_path / "t.csv"
+    write_table(p, {"x": [1.234567891, 2.0], "ok": np.array([True, False]), "name": ["a", "b,c"]}, ["m", "-", "-"],
+                formats={"x": ".3g"})
+    assert p.read_text().splitlines()[2:] == ["1.23,1,a", '2,0,"b,c"']
+    with pytest.raises(ValueError, match="2 units for 3 columns"):
+        write_table(p, {"x": [1.0], "y": [2.0], "z": [3.0]}, ["m", "m"])
+    with pytest.raises(ValueError, match="different lengths"):
+        write_table(p, {"x": [1.0], "y": [2.0, 3.0]}, ["m", "m"])
+
+
+def test_units_row_converts_to_si(tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_text("frequency,storage,temperature\nHz,MPa,degC\n1,3,20\n10,4,-273.0\n")
+    t = read_table(p, DMA)
+    np.testing.assert_allclose(t["frequency"], [2 * math.pi, 20 * math.pi], rtol=1e-15)
+    np.testing.assert_allclose(t["storage"], [3e6, 4e6], rtol=1e-15)
+    # -273.0 + 273.15 cancels: the error is the rounding of 273.15 (ulp 5.7e-14 K), absolute
+    np.testing.assert_allclose(t["temperature"], [293.15, 0.15], rtol=0, atol=1e-13)
+    assert t.units == {"frequency": "Hz", "storage": "MPa", "temperature": "degC"}
+
+
+def test_optional_units_row_and_units_in_names(tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_text("Freq [kHz],STORAGE (kPa)\n1,2\n")
+    with pytest.raises(ValueError, match=r"line 1: unit 'kHz' of column 'Freq \[kHz\]' not understood; expected one of"):
+        read_table(p, [Column("frequency", UNITS["frequency"], aliases=("freq",)), DMA[1]], units_row="optional",
+                   case_sensitive=False)
+    p.write_text("Freq [Hz],STORAGE (kPa)\n1,2\n")
+    t = read_table(p, [Column("frequency", UNITS["frequency"], aliases=("freq",)), DMA[1]], units_row="optional",
+                   case_sensitive=False)
+    assert t["frequency"].tolist() == [2 * math.pi] and t["storage"].tolist() == [2e3]
+    # a units row is recognised by having no numbers; case-insensitive units when unambiguous
+    p.write_text("frequency,storage\nhz,mpa\n1,2\n")
+    assert read_table(p, DMA, units_row="optional")["storage"].tolist() == [2e6]
+    p.write_text("frequency,storage\n1,2\n")
+    with pytest.raises(ValueError, match=r"line 1: column 'frequency' has no unit; .* e.g. 'frequency \[Hz\]'"):
+        read_table(p, DMA, units_row="optional")
+    p.write_text("frequency,storage\nHz,2\n1,2\n")
+    with pytest.raises(ValueError, match="line 2: mixes numbers and text"):
+        read_table(p, DMA, units_row="optional")
+
+
+def test_bom_crlf_comments_and_blank_lines(tmp_path):
+    text = "# from the instrument\r\n\r\nfrequency,storage\r\nHz,Pa\r\n# a note\r\n1,5\r\n,\r\n2,6\r\n"
+    p = tmp_path / "t.csv"
+    p.write_bytes(text.encode("utf-8-sig"))
+    t = read_table(p, DMA)
+    assert t["storage"].tolist() == [5.0, 6.0] and t.lines.tolist() == [6, 8]
+    assert t.comments == ["from the instrument", "a note"]
+    assert [line for line, _ in read_rows(p).rows] == [3, 4, 6, 8]
+
+
+@pytest.mark.parametrize("text, match", [
+    ("frequency\nHz\n1\n", r"t\.csv, line 1: missing column\(s\) \['storage'\]"),
+    ("frequency,storage\nHz,Pa\n1,2\n3,x\n", r"t\.csv, line 4: storage = 'x' is not a number"),
+    ("frequency,storage\nHz,Pa\n1,2\n3,\n", r"line 4: missing value in column 'storage'"),
+    ("frequency,storage\nHz,Pa\n1,inf\n", r"line 3: storage is 'inf'; values must be finite"),
+    ("frequency,storage\nHz,Pa\n0,1\n", r"line 3: frequency must be positive, got 0 Hz"),
+    ("frequency,storage,temperature\nHz,Pa,degC\n1,1,-300\n", r"line 3: temperature must be above absolute zero, got -300 degC"),
+    ("frequency,storage\nHz,Pa\n1,2,3\n", r"line 3: 3 cells for 2 columns"),
+    ("frequency,storage\nHz\n1,2\n", r"line 2: the units row has 1 entries for 2 columns"),
+    ("frequency,storage\n1,2\n3,4\n", r"line 2: unit '1' of column 'frequency' not understood \(is the units row missing\?\)"),
+    ("frequency,storage,storage\nHz,Pa,Pa\n1,2,2\n", r"line 1: column name\(s\) \['storage'\] appear more than once"),
+    ("frequency,storage\nHz,Pa\n", r"needs a header row of names, a row of units and data rows"),
+])
+def test_bad_files_give_one_line_messages(tmp_path, text, match):
+    p = tmp_path / "t.csv"
+    p.write_text(text)
+    with pytest.raises(ValueError, match=match) as err:
+        read_table(p, DMA)
+    assert "\n" not in str(err.value)
+
+
+def test_aliases_unused_columns_and_label_columns(tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_text("f,storage,Set,note\nHz,Pa,,-\n1,2,0,x\n")
+    cols = [Column("frequency", UNITS["frequency"], aliases=("f",)), DMA[1], Column("set", None)]
+    with pytest.warns(DataWarning, match=r"\['note'\] not used"):
+        t = read_table(p, cols, case_sensitive=False)
+    assert t["set"].tolist() == [0.0] and t.header["frequency"] == "f" and t.unused == ["note"]
+    p.write_text("f,freq,storage\nHz,Hz,Pa\n1,1,2\n")
+    with pytest.raises(ValueError, match=r"line 1: two columns give the frequency \('f' and 'freq'\)"):
+        read_table(p, [Column("frequency", UNITS["frequency"], aliases=("f", "freq")), DMA[1]])
