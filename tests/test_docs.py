@@ -52,7 +52,11 @@ SLOW = ("--method full", "make_synthetic.py", "reproduce")
 
 
 def _env():
-    return {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    """The test session's environment (its compile flags and cache, see conftest.py) without a
+    forced host device count that another test may have set."""
+    env = dict(os.environ)
+    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split() if "device_count" not in f)
+    return env
 
 
 @pytest.mark.parametrize("code", _blocks("python"))
