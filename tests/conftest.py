@@ -24,6 +24,10 @@ import tempfile
 if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
     if os.environ.get("JAXROLL_TEST_XLA_O0"):  # opt-in: see the module docstring
         os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --xla_backend_optimization_level=0".strip()
+    # XLA:CPU logs three lines per program it loads from a persistent cache on some x86 CPUs
+    # ("Loading XLA:CPU AOT result ... prefer-no-gather", an upstream XLA message): keep them out
+    # of the subprocesses' stderr that CLI tests read
+    os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
     if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
         _CACHE_DIR = tempfile.mkdtemp(prefix="jaxroll-tests-xla-")
         os.environ["JAX_COMPILATION_CACHE_DIR"] = _CACHE_DIR
