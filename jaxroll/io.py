@@ -152,11 +152,22 @@ def _is_number(text):
         return False
 
 
+#: First letters that are SI prefixes whose case changes the unit (milli/mega, pico/peta, kilo
+#: and Kelvin, giga, nano, micro): a unit starting with one must match that letter's case.
+_PREFIX_LETTERS = "mpkgnu"
+
+
 def _conversion(units, unit):
-    """``(scale, offset)`` of ``unit`` in ``units`` (exact, else unique case-insensitive match), or None."""
+    """``(scale, offset)`` of ``unit`` in ``units``, or None: an exact match, else the unique
+    case-insensitive one whose first letter agrees in case where it is an SI prefix letter
+    (``'hz'`` is Hz and ``'MPA'`` MPa, but ``'mpa'`` and ``'MN'`` are refused: milli/mega)."""
     if unit in units:
         return units[unit]
-    hits = [u for u in units if u.lower() == unit.lower()]
+
+    def same_prefix(u):
+        return not u or u[0].lower() not in _PREFIX_LETTERS or u[0] == unit[0]
+
+    hits = [u for u in units if u.lower() == unit.lower() and same_prefix(u)]
     return units[hits[0]] if len(hits) == 1 else None
 
 

@@ -61,8 +61,13 @@ def test_optional_units_row_and_units_in_names(tmp_path):
                    case_sensitive=False)
     assert t["frequency"].tolist() == [2 * math.pi] and t["storage"].tolist() == [2e3]
     # a units row is recognised by having no numbers; case-insensitive units when unambiguous
-    p.write_text("frequency,storage\nhz,mpa\n1,2\n")
+    p.write_text("frequency,storage\nhz,MPA\n1,2\n")
     assert read_table(p, DMA, units_row="optional")["storage"].tolist() == [2e6]
+    # ... but never across an SI prefix's case: mPa (milli) is not MPa, MN (mega) is not mN
+    for text, cols in (("frequency,storage\nhz,mpa\n1,2\n", DMA), ("load\nMN\n1\n", [Column("load", UNITS["force"])])):
+        p.write_text(text)
+        with pytest.raises(ValueError, match="not understood"):
+            read_table(p, cols, units_row="optional")
     p.write_text("frequency,storage\n1,2\n")
     with pytest.raises(ValueError, match=r"line 1: column 'frequency' has no unit; .* e.g. 'frequency \[Hz\]'"):
         read_table(p, DMA, units_row="optional")

@@ -43,7 +43,8 @@ FALLBACK_RESTART = 96
 #: Restart cycles of the first solve before it hands over to the fallback (a solve at the paper's
 #: resolution takes 3-4 cycles of 12).
 FIRST_SOLVE_CYCLES = 16
-#: Default bound on the Krylov iterations of one solve (restarts = this // restart).
+#: Krylov iterations of a solve without fallback (restarts = this // restart), and of the fallback
+#: solve (which follows at most ``FIRST_SOLVE_CYCLES`` cycles of the first).
 MAX_KRYLOV_ITERATIONS = 1600
 
 
@@ -82,9 +83,9 @@ class GMRES(AbstractLinearSolver):
             fallback, :data:`FIRST_SOLVE_CYCLES` before it takes over).
         fallback_restart: basis size of a second solve, from where the first stopped, run only
             when the first missed the tolerance (default :data:`FALLBACK_RESTART` with the
-            preconditioner, none without; ``0``: none). It costs nothing where the first solve
-            converges, and makes the solves robust at fine resolution where a short basis
-            stagnates.
+            preconditioner, none without; ``0``: none). It is skipped where the first solve
+            converges (under ``vmap`` it runs for every lane once one lane needs it), and makes
+            the solves robust at fine resolution, where a short basis stagnates.
         preconditioner: right-precondition with the circulant approximation of the compliance on
             the contact set (:mod:`jaxroll.contact.precondition`). Default ``None``: on for 2D
             windows (the 3D sphere: 4-5x fewer operator applications), off in 1D (the default
@@ -127,7 +128,7 @@ class GMRES(AbstractLinearSolver):
         if not self.fallback_restart:
             return x
 
-        def fallback(c):  # at most one pass (a while loop, so that it costs nothing when not taken)
+        def fallback(c):  # at most one pass, in a while loop so that it is skipped when not needed
             x, _, _ = c
             x, res = gmres(matvec, b, x, atol=atol, precond=precond, restart=self.fallback_restart,
                            maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart))
