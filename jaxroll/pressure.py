@@ -57,7 +57,7 @@ __all__ = [
 ]
 
 #: Pressure-model names and their ``RollingResult.regime`` codes (:data:`jaxroll.result.REGIMES`).
-PRESSURE_MODELS = {name: code for code, name in REGIMES.items() if name in ("thick", "thin", "thin-compressible")}
+PRESSURE_MODELS = {r.label: int(r) for r in (REGIMES.thick, REGIMES.thin, REGIMES.thin_compressible)}
 
 #: Jaffar's thick-layer (Hertz-shape) model is valid for ``gamma = r_c/H <= 0.9`` ([ZG] 4.3).
 THICK_MAX_GAMMA = 0.9

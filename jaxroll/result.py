@@ -9,6 +9,8 @@ trustworthy, never a guess.
 
 from __future__ import annotations
 
+import enum
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -23,9 +25,20 @@ __all__ = ["RESULTS", "RollingResult", "REGIMES", "SolverError", "ValidityWarnin
 #: small-strain layer theory assumes ``r << R``.
 MAX_CONTACT_RATIO = 0.3
 
-#: Integer codes of ``RollingResult.regime``: which pressure model or method produced the value
-#: (an array, so it survives jit/vmap).
-REGIMES = {0: "thick", 1: "thin", 2: "thin-compressible", 3: "elastic", 4: "full"}
+class REGIMES(enum.IntEnum):
+    """Integer codes of ``RollingResult.regime``: which pressure model or method produced the value
+    (stored as an integer array, so it survives jit/vmap; ``REGIMES(int(res.regime)).label``)."""
+
+    thick = 0  #: Hertz/Jaffar stationary pressure of the direct method ([ZG] sec. 4.3)
+    thin = 1  #: thin incompressible layer pressure ([ZG] sec. 4.4)
+    thin_compressible = 2  #: thin compressible layer pressure ([ZG] sec. 4.5)
+    elastic = 3  #: the static elastic pressure solved on a grid (direct method)
+    full = 4  #: a full rolling-contact model (2D, 3D, or the slices built on the 2D one)
+
+    @property
+    def label(self) -> str:
+        """The name used by ``Direct(pressure=...)``, e.g. ``"thin-compressible"``."""
+        return self.name.replace("_", "-")
 
 
 class ValidityWarning(UserWarning):
@@ -239,5 +252,5 @@ def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, 
     scale = jnp.maximum(jnp.abs(resistance), 1e-300)
     trunc = jax.lax.stop_gradient(jnp.abs(resistance - resistance_dissipation) / scale)
     return RollingResult(value=resistance, contact_radius=contact_radius, gamma=gamma,
-                         regime=jnp.asarray(4), truncation=trunc, result=result, penetration=penetration,
+                         regime=jnp.asarray(int(REGIMES.full)), truncation=trunc, result=result, penetration=penetration,
                          pressure=pressure, grid=grid, iterations=iterations, residual=residual)

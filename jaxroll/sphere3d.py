@@ -64,7 +64,7 @@ from .contact_size import estimate_contact_size
 from .grids import FixedGrid
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from .material import complex_modulus, glassy_modulus
-from .result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
+from .result import REGIMES, RESULTS, RollingResult, first_failure, full_model_result, merge_results
 
 __all__ = [
     "SphereSolution",
@@ -410,7 +410,7 @@ def direct_elastic_rolling_resistance(material, layer: Layer, R, P, V, grid: Fix
         value=value,
         contact_radius=st.contact_radius,
         gamma=jnp.where(fin, st.contact_radius / where_safe(fin, H, 1.0), 0.0),
-        regime=jnp.asarray(3),
+        regime=jnp.asarray(int(REGIMES.elastic)),
         truncation=trunc,
         result=merge_results(st.result, first_failure((~ok, RESULTS.period_too_short))),
         penetration=st.penetration,
