@@ -15,7 +15,7 @@ terms (L = 20 cm, 500 terms: the periodic train is the same physics as the full 
 the contact radius from the static modulus (default, E = 3 G0) and from
 ``modulus="dynamic"`` (G'(V/r_static)); the aperiodic direct value (single roller, the library
 default) for reference; and the direct series with the exact static grid pressure
-(``jr.Direct(pressure="elastic", grid=<the full model's FixedGrid>)``: on the full model's own
+(``jr.DirectElastic(grid=<the full model's FixedGrid>)``: on the full model's own
 grid, so that only the stationary-pressure assumption differs). Every method is run through
 ``jr.rolling_resistance_grid`` compiled ahead of time; compile and run times are printed apart.
 
@@ -98,7 +98,7 @@ def run_case(name, quick):
         "direct (static E, L = 20 cm)": jr.Direct(period=PERIOD, n_terms=n_terms),
         "direct (dynamic E, L = 20 cm)": jr.Direct(modulus="dynamic", period=PERIOD, n_terms=n_terms),
         "direct (static E, aperiodic)": jr.Direct(),
-        "direct (grid static pressure)": jr.Direct(pressure="elastic", grid=grid),
+        "direct (grid static pressure)": jr.DirectElastic(grid=grid),
     }
     methods, times = {}, {}
     for k, m in variants.items():

@@ -57,7 +57,7 @@ from . import contact, cylinder, direct, slices, sphere3d  # noqa: F401  (the en
 
 # --- methods, grids, results and the front doors ------------------------------------------
 from .grids import AutoGrid, FixedGrid, memory_budget
-from .methods import AbstractMethod, Direct, Full, Slices
+from .methods import AbstractMethod, Direct, DirectElastic, Full, Slices
 from .result import RESULTS, RollingResult, SolverError, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
 from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh

@@ -161,7 +161,7 @@ def _method_from_args(args, *, fit=False):
             period = "auto"  # --pressure elastic evaluates the periodic [ZG] eq. 26
         grid = jr.AutoGrid(cells_per_radius=args.cells_per_radius, period=period, n_terms=args.n_terms)
     if name == "direct":
-        return jr.Direct(pressure=args.pressure, grid=grid)
+        return jr.DirectElastic(grid=grid) if args.pressure == "elastic" else jr.Direct(pressure=args.pressure)
     if name == "full":
         return jr.Full(grid=grid, edge_smoothing=args.edge_smoothing)
     return jr.Slices(algorithm=name, n_slices=args.n_slices, grid=grid)
@@ -762,7 +762,7 @@ def _runtime_message(err) -> str:
 
 def _cli_terms(message: str) -> str:
     """A library message with its API names replaced by the command-line options."""
-    return message.replace("pressure='elastic'", "--pressure elastic").replace("the full model", "--method full")
+    return message.replace("jr.DirectElastic", "--pressure elastic").replace("the full model", "--method full")
 
 
 def _warn_invalid(codes, where) -> None:

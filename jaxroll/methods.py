@@ -6,8 +6,9 @@ objects are the model): it is the compilation cache key of the front doors
 with new values of the same shapes compiles nothing.
 
 * :class:`Direct`: the direct Fourier-series method of [ZG] sec. 4 (stationary pressure;
-  :mod:`jaxroll.direct`), spheres and cylinders. No grid (quadrature or the periodic series),
-  except ``pressure="elastic"`` (the static elastic pressure solved on the full 3D model's grid).
+  :mod:`jaxroll.direct`), spheres and cylinders. No grid (quadrature or the periodic series).
+  :class:`DirectElastic` is the same dissipation with the static elastic pressure solved on the
+  full 3D model's grid (spheres).
 * :class:`Full`: the full rolling-contact model, 2D (cylinder, :mod:`jaxroll.cylinder`) or 3D
   (sphere, :mod:`jaxroll.sphere3d`), picked by the ``geometry`` argument of the front door.
 * :class:`Slices`: the sphere from 2D cylinder slices, algorithms PD, PP, SP of [ZG] sec. 3
@@ -37,7 +38,7 @@ from .contact_size import check_geometry, estimate_contact_size
 from .grids import AutoGrid, FixedGrid, check_memory
 from .result import RollingResult
 
-__all__ = ["AbstractMethod", "Direct", "Full", "Slices", "as_method", "METHOD_NAMES"]
+__all__ = ["AbstractMethod", "Direct", "DirectElastic", "Full", "Slices", "as_method", "METHOD_NAMES"]
 
 #: The full model of each geometry: a module with ``kernel_builder``, ``solve`` and ``result``.
 _FULL_MODELS = {"sphere": sphere3d, "cylinder": cylinder}
@@ -112,16 +113,15 @@ def _check_choice(name, value, choices):
 
 class Direct(AbstractMethod):
     """The direct Fourier-series method of [ZG] sec. 4: a stationary pressure (Hertz/Jaffar on
-    thick layers, the thin-layer shapes, or the static elastic pressure on a grid) dissipating in
+    thick layers, or the thin-layer shapes) dissipating in
     the rolling compliance ([ZG] eqs. 26, 29, 37, 42, 47). Cheap (milliseconds per point) but the
     stationary-pressure assumption is low by ~20 % near and above the R_r peak (see the
     accuracy table of docs/methods.md sec. 3): for screening.
 
     Args:
         pressure: ``"auto"`` (thick model where Jaffar's law has a solution, else thin),
-            ``"thick"``, ``"thin"``, ``"thin-compressible"``, or ``"elastic"`` (spheres: the
-            static elastic contact pressure solved on ``grid`` by the 3D contact solver, valid
-            for any thickness, [ZG] footnote 4's open case).
+            ``"thick"``, ``"thin"`` or ``"thin-compressible"``. The static elastic pressure
+            solved on a grid is its own method, :class:`DirectElastic`.
         modulus: modulus of the contact radius: ``"static"`` (``G'(0)``, reproduces the paper's
             radii), ``"glassy"``, ``"dynamic"`` (``G'`` at ``V / r_static``) or a value [Pa].
         rtol: target relative accuracy of the aperiodic quadrature.
@@ -129,7 +129,6 @@ class Direct(AbstractMethod):
             A period [m] (scalar, or ``(Lx, Ly)`` for spheres) selects [ZG]'s periodic series of
             ``n_terms`` terms per direction.
         n_terms: terms per direction of the periodic series.
-        grid: the grid of ``pressure="elastic"`` (ignored otherwise).
     """
 
     pressure: str = eqx.field(static=True, default="auto")
@@ -137,41 +136,19 @@ class Direct(AbstractMethod):
     rtol: float = eqx.field(static=True, default=1e-4)
     period: float | tuple | None = eqx.field(static=True, default=None)
     n_terms: int | None = eqx.field(static=True, default=None)
-    grid: AutoGrid | FixedGrid = AutoGrid(period="auto")
 
     def __check_init__(self):
-        _check_choice("Direct.pressure", self.pressure, ("auto", "thick", "thin", "thin-compressible", "elastic"))
+        if self.pressure == "elastic":
+            raise ValueError("the direct method with the static elastic pressure solved on a grid is "
+                             "jr.DirectElastic(grid=...)")
+        _check_choice("Direct.pressure", self.pressure, ("auto", "thick", "thin", "thin-compressible"))
         if not (isinstance(self.rtol, float) and 0 < self.rtol < 1):
             raise ValueError(f"Direct.rtol must be a number in (0, 1); got {self.rtol!r}")
         if (self.period is None) != (self.n_terms is None):
             raise ValueError("Direct: the periodic series needs both period and n_terms (or neither, for the "
                              "aperiodic limit)")
-        _check_grid(self.grid, "Direct")
-
-    def check_geometry(self, geometry):
-        super().check_geometry(geometry)
-        if self.pressure == "elastic" and geometry != "sphere":
-            raise ValueError("Direct(pressure='elastic') (static elastic contact pressure from the 3D contact "
-                             "solver) is implemented for geometry='sphere'")
-
-    def needs_resolution(self, geometry):
-        return self.pressure == "elastic" and isinstance(self.grid, AutoGrid)
-
-    def uses_grid(self, geometry):
-        return self.pressure == "elastic"
-
-    def grid_ndim(self, geometry):
-        return 2
-
-    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
-        self.check_geometry(geometry)
-        if not self.needs_resolution(geometry):
-            return self
-        return eqx.tree_at(lambda m: m.grid, self, self.grid.sphere(material, layer, radius, loads, speeds))
 
     def evaluate(self, material, layer, R, P, V, geometry):
-        if self.pressure == "elastic":
-            return sphere3d.direct_elastic_rolling_resistance(material, layer, R, P, V, self.grid)
         return direct.direct_rolling_resistance(material, layer, radius=R, load=P, speed=V, geometry=geometry,
                                                 pressure=self.pressure, period=self.period, n_terms=self.n_terms,
                                                 rtol=self.rtol, modulus=self.modulus)
@@ -185,6 +162,36 @@ class _GridMethod(AbstractMethod):
 
     def uses_grid(self, geometry):
         return True
+
+
+class DirectElastic(_GridMethod):
+    """The direct method of [ZG] sec. 4 with the exact static elastic contact pressure: the
+    pressure of the rigid sphere pressed on the layer at rest is solved on ``grid`` by the 3D
+    contact solver (valid for any thickness, [ZG] footnote 4's open case) and dissipates in the
+    rolling compliance through the periodic [ZG] eq. 26 on the grid's period. Spheres only.
+
+    Args:
+        grid: :class:`~jaxroll.grids.AutoGrid` (default: periodic, ``period="auto"``) or a
+            periodic :class:`~jaxroll.grids.FixedGrid`.
+    """
+
+    geometries = ("sphere",)
+    grid: AutoGrid | FixedGrid = AutoGrid(period="auto")
+
+    def __check_init__(self):
+        _check_grid(self.grid, "DirectElastic")
+
+    def grid_ndim(self, geometry):
+        return 2
+
+    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
+        self.check_geometry(geometry)
+        if not self.needs_resolution(geometry):
+            return self
+        return eqx.tree_at(lambda m: m.grid, self, self.grid.sphere(material, layer, radius, loads, speeds))
+
+    def evaluate(self, material, layer, R, P, V, geometry):
+        return sphere3d.direct_elastic_rolling_resistance(material, layer, R, P, V, self.grid)
 
 
 class Full(_GridMethod):

@@ -103,7 +103,7 @@ RESULTS = _Results([
                          "(lengthen the period, or use an infinite layer)"),
     ("outside_pressure_model", "the contact lies outside the range of validity of the stationary pressure model "
                                "(gamma = r_c/H: Jaffar's thick model needs gamma <= 0.9, the thin model gamma >= "
-                               "10); use pressure='elastic' or the full model"),
+                               "10); use jr.DirectElastic or the full model"),
     ("truncation_too_large", "the method's own error estimate (quadrature or series truncation, or the gap between "
                              "the moment and dissipation forms of R_r) exceeds its threshold (refine the method)"),
     ("contact_too_large", "the contact radius exceeds 0.3 R: not a small-strain contact (the models assume a "

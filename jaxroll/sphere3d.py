@@ -36,7 +36,7 @@ is speed independent) and only ``G*`` per speed, which is what makes the referen
 Deviation from paper: none in the model; the mode modulus is ``conj(G*(q_x V))`` (inside
 :func:`jaxroll.layer.surface_compliance`) and eq. 19's cases are swapped .
 
-The *direct method with the exact stationary pressure* (``jr.Direct(pressure="elastic")``):
+The *direct method with the exact stationary pressure* (``jr.DirectElastic()``):
 :func:`static_pressure` solves the elastic (relaxed, ``V = 0``) contact on the same grid and
 :func:`direct_elastic_rolling_resistance` evaluates the dissipation of that fixed pressure
 under the rolling compliance (the periodic [ZG] eq. 26 with the grid pressure's exact
@@ -380,7 +380,7 @@ def static_pressure(material, layer: Layer, R, P, grid: FixedGrid, *, modulus: s
 
 def direct_elastic_rolling_resistance(material, layer: Layer, R, P, V, grid: FixedGrid, *, tol: float = 1e-10,
                                       max_steps: int = 50) -> RollingResult:
-    """Direct-method ``R_r`` [N] with the exact static elastic pressure (``pressure="elastic"``).
+    """Direct-method ``R_r`` [N] with the exact static elastic pressure (:class:`jaxroll.DirectElastic`).
 
     ``R_r = dA^2 p . (D p)`` = ``Lx Ly sum_m q_x Im T(q_m) |p_hat_m|^2`` (the periodic [ZG]
     eq. 26, every Fourier term of the piecewise-constant grid pressure up to ``n_terms``) with
@@ -395,7 +395,7 @@ def direct_elastic_rolling_resistance(material, layer: Layer, R, P, V, grid: Fix
         ``pressure``, ``grid``, ``penetration``, ``result``.
     """
     if grid.period is None:
-        raise ValueError("Direct(pressure='elastic') evaluates the periodic [ZG] eq. 26 on the grid's period: give "
+        raise ValueError("DirectElastic evaluates the periodic [ZG] eq. 26 on the grid's period: give "
                          "a periodic grid (jr.AutoGrid(period='auto') or a FixedGrid with a period)")
     st = static_pressure(material, layer, R, P, grid, tol=tol, max_steps=max_steps)
     dA = grid.spacing * grid.spacing

@@ -93,7 +93,7 @@ def test_every_material_in_every_method(material, case):
 
 def test_autogrid_under_a_transformation_raises_with_what_to_do():
     layer = jr.Layer(0.03)
-    for method in ("full", "SP", jr.Direct(pressure="elastic")):
+    for method in ("full", "SP", jr.DirectElastic()):
         with pytest.raises(ValueError, match=r"method.resolve\(material, layer, radius=.*or give a jr.FixedGrid"):
             jax.jit(lambda V, m=method: jr.rolling_resistance(SLS, layer, radius=R, load=100.0, speed=V,
                                                               method=m).value)(0.01)
