@@ -28,7 +28,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import warnings
 from pathlib import Path
 
 import jax
@@ -37,7 +36,7 @@ import numpy as np
 
 from ._lsq import least_squares
 from .fit import Z95
-from .io import UNITS, Column, DataWarning, read_table, write_table
+from .io import UNITS, Column, read_table, write_table
 from .material import GAS_CONSTANT, WLF, Arrhenius, GeneralizedMaxwell
 
 __all__ = [
