@@ -34,7 +34,7 @@ def timed(fn, *args, repeat=5, all_runs=False):
 
 def aot(fn, *args, repeat=5):
     """``(compile, median, output, compiled)``: ``jax.jit(fn)`` lowered and compiled ahead of time
-    (timed alone, as ``jaxroll.reproduce`` does), then one warm-up call and the median of
+    (timed alone, as ``jaxroll.apps.reproduce`` does), then one warm-up call and the median of
     ``repeat`` timed calls of the compiled program."""
     t = time.perf_counter()
     compiled = jax.jit(fn).lower(*args).compile()

@@ -5,7 +5,7 @@ Run:  python benchmarks/bench_cylinder.py [--quick]
 Reports (CPU, float64): compile time apart from run time (ahead of time), medians of repeated
 runs, everything through ``jr.rolling_resistance`` / ``jr.rolling_resistance_grid``:
 * one point with the automatic grid (``jr.Full()``, half-space, V tau/a0 = 1): error against the
-  exact half-space solution (``jr.exact_cylinder_halfspace``);
+  exact half-space solution (``jr.reference.exact_cylinder_halfspace``);
 * one point on an explicit grid (SLS G0 = 3 MPa, tau = 0.25 s, f = 1, R = 2 cm, P' = 5 kN/m,
   H = 5 mm, V tau/a0 = 1): ``jr.FixedGrid(a/25, 150, period=2**17 a/25)`` (25 cells per
   estimated half-width ``a``, 2^17 cells per period, as the paper-era benchmark), and
@@ -42,7 +42,7 @@ MAT = jr.StandardLinearSolid(G0, TAU, F)
 def line_grid(loads, H_=H):
     """The explicit grid of this benchmark: 25 cells per smallest estimated half-width, a window of
     3 largest half-widths each side, 2^17 cells per period."""
-    a = np.asarray([float(jr.estimate_contact_size(MAT, jr.Layer(H_), R, float(P), "cylinder")) for P in loads])
+    a = np.asarray([float(jr.engines.contact_size.estimate_contact_size(MAT, jr.Layer(H_), R, float(P), "cylinder")) for P in loads])
     dx = a.min() / CPR
     return jr.FixedGrid(dx, 2 * math.ceil(3.0 * a.max() / dx), period=N_CELLS * dx), a
 
@@ -118,7 +118,7 @@ def main():
     half = jr.Layer(jnp.inf)
     first, run, res = timed(lambda: jr.rolling_resistance(MAT, half, radius=R, load=P1, speed=V1,
                                                           geometry="cylinder", method=jr.Full()), repeat=3)
-    ex = float(jr.exact_cylinder_halfspace(MAT, R, P1, V1).rolling_resistance)
+    ex = float(jr.reference.exact_cylinder_halfspace(MAT, R, P1, V1).rolling_resistance)
     print(f"\none point (half-space, V tau/a0 = 1, jr.Full() automatic grid, eager): first call {first:.2f} s, "
           f"warm {1e3 * run:.1f} ms, R_r = {float(res.value):.5g} N/m, exact {ex:.5g}, "
           f"err {float(res.value) / ex - 1:+.2e}, iterations {int(res.iterations)}")

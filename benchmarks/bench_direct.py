@@ -62,7 +62,7 @@ def numpy_eq37(N=50):
     q = np.sqrt(qx**2 + qy**2)
     y = q * H
     Fq = (np.sinh(2 * y) - 2 * y) / (np.cosh(2 * y) + 2 * y * y + 1)
-    radii = {float(P): float(jr.contact_radius(MAT, LAYER, R, P)[0]) for P in LOADS}
+    radii = {float(P): float(jr.engines.contact_size.contact_radius(MAT, LAYER, R, P)[0]) for P in LOADS}
 
     def run():
         out = np.empty((len(SPEEDS), len(LOADS)))

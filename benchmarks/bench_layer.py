@@ -6,7 +6,7 @@ The baseline is the same closed form (same three-branch stable evaluation) writt
 NumPy, run in the same process. Reports compile time apart, medians of repeated runs, the
 ratio, and the max relative difference between the two.
 
-Times the public ``jr.surface_compliance`` under ``jax.jit`` (``lax.map`` over speeds), compiled
+Times the public ``jr.engines.layer.surface_compliance`` under ``jax.jit`` (``lax.map`` over speeds), compiled
 ahead of time apart from the runs. ``--quick``: 201 x 201 modes, 2 repeats.
 
 Usage: python benchmarks/bench_layer.py [--quick] [--modes 1001] [--repeats 3]
@@ -25,7 +25,7 @@ from _timing import aot, summary
 
 
 def numpy_compliance(qx, qy, V, H, rho, G0, tau, f):
-    """Incompressible layer with inertia, the three-branch closed form of jaxroll.layer, NumPy."""
+    """Incompressible layer with inertia, the three-branch closed form of jaxroll.engines.layer, NumPy."""
     iwt = 1j * qx * V * tau
     G = np.conj(G0 * (1 + iwt) / (1 + iwt / (1 + f)))
     q2 = qx * qx + qy * qy
@@ -106,7 +106,7 @@ def main():
 
     def all_speeds(speeds):
         # one speed at a time keeps the working set at ~1001^2 complex temporaries
-        return jax.lax.map(lambda V: jr.surface_compliance(layer, mat, qxj, qyj, V), speeds)
+        return jax.lax.map(lambda V: jr.engines.layer.surface_compliance(layer, mat, qxj, qyj, V), speeds)
 
     compile_s, t_jax, out, _ = aot(all_speeds, jnp.asarray(speeds), repeat=args.repeats)
 

@@ -42,7 +42,7 @@ def main():
     ap.add_argument("--quick", action="store_true", help="5 x 3 points (time scaled to 345), 11 slices, coarse 3D")
     ap.add_argument("--H", type=float, default=5e-3, help="layer thickness [m]")
     ap.add_argument("--repeat", type=int, default=5)
-    solvers = {c.__name__.lower(): c for c in jr.slices.LINEAR_SOLVERS}
+    solvers = {c.__name__.lower(): c for c in jr.engines.slices.LINEAR_SOLVERS}
     ap.add_argument("--linear-solver", default="interval", choices=list(solvers))
     ap.add_argument("--no-3d", action="store_true", help="skip the full 3D model")
     args = ap.parse_args()
@@ -60,7 +60,7 @@ def main():
           f"medians of {repeat} runs")
     cmd = "bench_slices.py" + (" --quick" if args.quick else "")
     results = {}
-    for alg in jr.slices.ALGORITHMS:
+    for alg in jr.engines.slices.ALGORITHMS:
         method = jr.Slices(algorithm=alg, n_slices=n_slices, grid=grid, linear_solver=solvers[args.linear_solver]())
 
         def single(H, P, V, method=method):
@@ -84,7 +84,7 @@ def main():
     if args.no_3d:
         return
     spacing, n_terms = (5e-4, 250) if args.quick else (2.5e-4, 500)
-    r_max = float(jr.estimate_contact_size(mat, jr.Layer(args.H), R, float(loads.max())))
+    r_max = float(jr.engines.contact_size.estimate_contact_size(mat, jr.Layer(args.H), R, float(loads.max())))
     window = max(41 if not args.quick else 21, 2 * math.ceil(1.15 * r_max / spacing) + 1)
     full = jr.Full(grid=jr.FixedGrid(spacing, window, period=PERIOD, n_terms=n_terms))
 

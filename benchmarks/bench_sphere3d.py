@@ -8,7 +8,7 @@ loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at th
 resolution: ``jr.Full(grid=jr.FixedGrid(2.5e-4, window, period=0.2, n_terms=500))`` with the
 window of 41 cells of the paper, enlarged to fit the largest contact. Paper: 54 min per reference
 case. Timed through ``jr.rolling_resistance_grid`` compiled ahead of time (material and layer
-parameters as arguments, as in ``jaxroll.reproduce``): compile apart, median of repeats.
+parameters as arguments, as in ``jaxroll.apps.reproduce``): compile apart, median of repeats.
 
 Reports the device, resolution, the points that are not valid (``RollingResult.result``), the
 active-set iterations and the compiled working memory. ``--quick``: 6 speeds x 4 loads, cells
@@ -52,7 +52,7 @@ def main():
     if period is None:
         n_terms = None
     mat = jr.StandardLinearSolid(G0, TAU, F)
-    r_max = float(jr.estimate_contact_size(mat, jr.Layer(args.H), R, float(loads.max())))
+    r_max = float(jr.engines.contact_size.estimate_contact_size(mat, jr.Layer(args.H), R, float(loads.max())))
     window = max(41 if not args.quick else 21, 2 * math.ceil(1.15 * r_max / spacing) + 1)
     method = jr.Full(grid=jr.FixedGrid(spacing, window, period=period, n_terms=n_terms), tol=args.tol,
                      linear_solver=jr.contact.GMRES(restart=args.restart))

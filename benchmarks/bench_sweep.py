@@ -69,7 +69,7 @@ def workload_modulus(n, args):
 
     grid = _grid_2d(n, jnp, jr)
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
-    return (lambda p: jr.tan_delta(mat, p.V / 1e-3)), grid, "tan delta at omega = V/1 mm"
+    return (lambda p: jr.materials.tan_delta(mat, p.V / 1e-3)), grid, "tan delta at omega = V/1 mm"
 
 
 def workload_series(n, args):

@@ -87,7 +87,7 @@ def run_case(name, quick):
     else:
         speeds, loads, spacing, n_terms = np.logspace(-4, 0, 23), np.linspace(*c["loads"], 15), 2.5e-4, 500
     mat = jr.StandardLinearSolid(G0, TAU, F)
-    r_max = float(jr.estimate_contact_size(mat, jr.Layer(H), R, float(loads.max())))
+    r_max = float(jr.engines.contact_size.estimate_contact_size(mat, jr.Layer(H), R, float(loads.max())))
     window = max(41 if not quick else 21, 2 * math.ceil(1.15 * r_max / spacing) + 1)
     grid = jr.FixedGrid(spacing, window, period=PERIOD, n_terms=n_terms)
     args = (G0, H, jnp.asarray(loads), jnp.asarray(speeds))

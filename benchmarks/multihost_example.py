@@ -149,7 +149,7 @@ def main() -> int:
         if args.model == "direct":
             return jr.rolling_resistance(material, jr.Layer(5e-3), radius=0.02, load=100.0, speed=p.V,
                                          method=jr.Direct(), throw=False).value
-        return jr.tan_delta(material, p.V / 1e-3)
+        return jr.materials.tan_delta(material, p.V / 1e-3)
 
     t0 = time.perf_counter()
     if args.points:  # the same points as a flat list (pytree with a leading axis)

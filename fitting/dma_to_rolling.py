@@ -17,7 +17,7 @@ matplotlib.use("Agg")  # a script writing files (the library never selects a bac
 import numpy as np  # noqa: E402
 
 import jaxroll as jr  # noqa: E402
-from jaxroll import plot  # noqa: E402
+from jaxroll.apps import plot  # noqa: E402
 
 DATA = Path(__file__).resolve().parent / "data" / "pyvisco_freq_user_raw.csv"
 
@@ -31,7 +31,7 @@ def main():
     out.mkdir(parents=True, exist_ok=True)
     sw = jr.read_dma_sweeps(DATA)
     sh = jr.fit_shift_factors(sw, T_ref=298.15)
-    wlf, arr = jr.fit_wlf(sh), jr.fit_arrhenius(sh)
+    wlf, arr = jr.fit_wlf(sh), jr.materials.fit_arrhenius(sh)
     master = jr.master_curve(sw, sh)
     t0 = time.perf_counter()
     pf = jr.fit_prony(master)
@@ -46,8 +46,8 @@ def main():
           f"G_0 = {float(pf.material.glassy_modulus()):.4g} Pa ({time.perf_counter() - t0:.1f} s)")
     jr.save_material(out / "material.json", pf.material, wlf.shift, info={"source": DATA.name})
     jr.save_material(out / "material.csv", pf.material, wlf.shift)
-    jr.write_abaqus(pf.material, out / "material_abaqus.inp", shift=wlf.shift)
-    jr.write_ansys(pf.material, out / "material_ansys.mac", shift=wlf.shift)
+    jr.materials.write_abaqus(pf.material, out / "material_abaqus.inp", shift=wlf.shift)
+    jr.materials.write_ansys(pf.material, out / "material_ansys.mac", shift=wlf.shift)
     plot.close(plot.plot_master_fit(master, pf, path=out / "master_curve.png"))
     n = 7 if args.quick else 25
     Ts, Vs = np.linspace(253.15, 373.15, n), np.logspace(-3, 1, n)

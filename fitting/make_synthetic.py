@@ -14,7 +14,7 @@
   method), 1 % noise.
 
 The generating model, resolution, seed and true parameters are also written as ``#`` comment
-lines at the top of synthetic_sphere.csv (jaxroll.fit.read_rolling_csv skips them).
+lines at the top of synthetic_sphere.csv (jaxroll.identify.fit.read_rolling_csv skips them).
 
 Usage: python fitting/make_synthetic.py [--method full|direct] [--spacing 2.5e-4] [--out fitting/data]
 Run time (2 cores): about 15-30 s for the full-model set at the default resolution.
@@ -49,7 +49,7 @@ def full_method(spacing=SPACING, period=PERIOD, n_terms=None, edge_smoothing=EDG
     largest contact (radius estimate x 1.15, at least 41 cells as in the paper), and the smoothed
     contact edge."""
     mat = jr.StandardLinearSolid(**TRUE)
-    r_max = float(jr.estimate_contact_size(mat, jr.Layer(H=H, rho=RHO), R, float(LOADS.max())))
+    r_max = float(jr.engines.contact_size.estimate_contact_size(mat, jr.Layer(H=H, rho=RHO), R, float(LOADS.max())))
     window = max(41 if spacing <= SPACING else 3, 2 * math.ceil(1.15 * r_max / spacing) + 1)
     n_terms = n_terms if n_terms is not None else (N_TERMS if spacing == SPACING else round(period / spacing) // 2 * 2)
     return jr.Full(grid=jr.FixedGrid(spacing, window, period=period, n_terms=n_terms), edge_smoothing=edge_smoothing)

@@ -12,59 +12,47 @@ from . import _compilation_cache
 
 _compilation_cache.enable()
 
-# --- material (G*(omega)) ---------------------------------------------------------------
-from .material import (
-    AbstractMaterial,
-    AbstractShift,
+# --- materials (G*(omega)) and the layer ---------------------------------------------------
+from .materials.material import (
+    WLF,
     Arrhenius,
-    AtTemperature,
     GeneralizedMaxwell,
     StandardLinearSolid,
-    WLF,
     at_temperature,
     complex_modulus,
-    glassy_modulus,
-    loss_modulus,
-    relaxation_modulus,
-    relaxed_modulus,
-    shift_factor,
-    storage_modulus,
-    tan_delta,
 )
-
-# --- layer transfer (T(q)) ----------------------------------------------------------------
-from .layer import Layer, shear_wave_speed, surface_compliance
-
-# --- special functions, pressure, direct series, contact, references (added per module) ---
-from . import reference, special  # noqa: F401  (special: importable as jaxroll.special)
-from .reference import (
-    ExactCylinder,
-    HertzSphere,
-    exact_cylinder_halfspace,
-    exact_cylinder_halfspace_dimensionless,
-    hertz_cylinder,
-    hertz_cylinder_pressure,
-    hertz_sphere,
-    persson_cylinder_halfspace,
-    persson_sphere_halfspace,
-    thin_layer_cylinder,
-    thin_layer_cylinder_pressure,
-)
-from .contact_size import contact_radius, estimate_contact_size, jaffar_coefficients
-from .pressure import pressure_profile, pressure_transform
-from .direct import QuadratureSettings
-from . import contact, cylinder, direct, slices, sphere3d  # noqa: F401  (the engines, as modules)
+from .engines.layer import Layer
 
 # --- methods, grids, results and the front doors ------------------------------------------
-from .grids import AutoGrid, FixedGrid, memory_budget
-from .methods import AbstractMethod, Direct, DirectElastic, Full, Slices
+from .grids import AutoGrid, FixedGrid
+from .methods import Direct, DirectElastic, Full, Slices
 from .result import RESULTS, RollingResult, SolverError, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
-from .sweep import DEFAULT_CHUNK_SIZE, Grid, sweep, sweep_mesh
-from .fit import DataWarning, DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv
-from . import mastercurve  # noqa: F401  (raw multi-temperature DMA -> master curve -> Prony/WLF)
-from .mastercurve import (DMASweeps, MasterCurve, PronyFit, ShiftFactors, ShiftFit, fit_arrhenius, fit_prony,  # noqa: F401
-                          fit_shift_factors, fit_wlf, load_material, loss_artifacts, master_curve, read_dma_sweeps,  # noqa: F401
-                          save_material, write_abaqus, write_ansys, ResistanceMap, resistance_map)  # noqa: F401
+from .sweep import Grid, sweep, sweep_mesh
+from .maps import ResistanceMap, resistance_map
+
+# --- identification: DMA -> master curve -> Prony, and fits to rolling data ----------------
+from .io import DataWarning
+from .materials import fit_prony, fit_shift_factors, fit_wlf, load_material, master_curve, read_dma_sweeps, save_material
+from .identify.fit import DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material
+
+# --- subpackages and modules reachable as attributes ---------------------------------------
+from . import apps, contact, engines, grids, identify, io, materials, methods, reference  # noqa: E402
 
 __version__ = "0.1.0"
+
+__all__ = [
+    # materials and layer
+    "StandardLinearSolid", "GeneralizedMaxwell", "WLF", "Arrhenius", "at_temperature", "complex_modulus", "Layer",
+    # methods and grids
+    "Full", "Direct", "DirectElastic", "Slices", "AutoGrid", "FixedGrid",
+    # front doors and results
+    "rolling_resistance", "rolling_resistance_grid", "sweep", "sweep_mesh", "Grid", "resistance_map",
+    "ResistanceMap", "RollingResult", "RESULTS", "SolverError", "ValidityWarning",
+    # identification
+    "read_dma_sweeps", "fit_shift_factors", "fit_wlf", "master_curve", "fit_prony", "save_material",
+    "load_material", "fit_material", "RollingData", "DMAData", "FitResult",
+    "DataWarning", "IdentifiabilityWarning", "MisfitWarning",
+    # subpackages
+    "apps", "contact", "engines", "grids", "identify", "io", "materials", "methods", "reference",
+]

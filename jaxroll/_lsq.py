@@ -12,7 +12,9 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["Solution", "least_squares"]
+__all__ = ["Solution", "Z95", "least_squares"]
+
+Z95 = 1.959963984540054  # the two-sided 95 % quantile of the standard normal distribution
 
 
 @dataclasses.dataclass(frozen=True)

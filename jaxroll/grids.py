@@ -18,10 +18,10 @@ than guessing.
 The sizing rules (one home for each):
 
 * **sphere** (full 3D model): cell ``a = r/c`` with ``r`` the stationary contact radius
-  (:func:`jaxroll.contact_size.estimate_contact_size`) and ``c = 12`` cells per radius, at least
+  (:func:`jaxroll.engines.contact_size.estimate_contact_size`) and ``c = 12`` cells per radius, at least
   ``2 r/H`` on thin layers (the compliance kernel is only ~H wide); window
   ``2 ceil(1.25 r_max/a) + 1`` cells. Default: an infinite layer (``period=None``, the
-  aperiodic kernel of :mod:`jaxroll.aperiodic`). With ``period="auto"``: ``Lx >= 20 max(r,
+  aperiodic kernel of :mod:`jaxroll.engines.aperiodic`). With ``period="auto"``: ``Lx >= 20 max(r,
   V t_max)``, ``Ly >= 20 r`` in powers of two of cells (``t_max`` the material's longest
   retardation time), ``Lx`` capped at 2^16 cells; Fourier cut-off ``n_terms`` = the larger
   cell count.
@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .contact_size import estimate_contact_size
+from .engines.contact_size import estimate_contact_size
 
 __all__ = ["AutoGrid", "FixedGrid", "PERIOD_FACTOR", "union"]
 
@@ -286,9 +286,9 @@ class FixedGrid(eqx.Module):
     def _kernel_memory(self, ndim) -> int:
         """The compliance kernel's share of :meth:`memory_estimate` [bytes]."""
         if self.period is None:
-            # the quadrature nodes of jaxroll.aperiodic; in 3D the y-integrals (two W-column
+            # the quadrature nodes of jaxroll.engines.aperiodic; in 3D the y-integrals (two W-column
             # tables per x node) and one chunk of the node tensor
-            from . import aperiodic
+            from .engines import aperiodic
 
             wq = aperiodic.W_CUT_SURFACE if ndim == 2 else aperiodic.W_TAIL_LINE
             nodes = aperiodic.fourier_rule(self.window, wq).w.size
@@ -325,7 +325,7 @@ class AutoGrid(eqx.Module):
         window_radii: half-width of the pressure window in estimated contact radii (``None``:
             1.25 for spheres, 3 for lines).
         period: ``None`` (default: an infinite layer, the aperiodic influence coefficients of
-            :mod:`jaxroll.aperiodic`; memory and time follow the contact, not ``V t_max``),
+            :mod:`jaxroll.engines.aperiodic`; memory and time follow the contact, not ``V t_max``),
             ``"auto"`` (a periodic surface long enough for the layer to recover,
             ``>= period_factor max(contact size, V t_max)``), or a period [m] (or ``(Lx, Ly)``).
         period_factor: see ``period="auto"``.

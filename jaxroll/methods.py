@@ -6,13 +6,13 @@ objects are the model): it is the compilation cache key of the front doors
 with new values of the same shapes compiles nothing.
 
 * :class:`Direct`: the direct Fourier-series method of [ZG] sec. 4 (stationary pressure;
-  :mod:`jaxroll.direct`), spheres and cylinders. No grid (quadrature or the periodic series).
+  :mod:`jaxroll.engines.direct`), spheres and cylinders. No grid (quadrature or the periodic series).
   :class:`DirectElastic` is the same dissipation with the static elastic pressure solved on the
   full 3D model's grid (spheres).
-* :class:`Full`: the full rolling-contact model, 2D (cylinder, :mod:`jaxroll.cylinder`) or 3D
-  (sphere, :mod:`jaxroll.sphere3d`), picked by the ``geometry`` argument of the front door.
+* :class:`Full`: the full rolling-contact model, 2D (cylinder, :mod:`jaxroll.engines.cylinder`) or 3D
+  (sphere, :mod:`jaxroll.engines.sphere3d`), picked by the ``geometry`` argument of the front door.
 * :class:`Slices`: the sphere from 2D cylinder slices, algorithms PD, PP, SP of [ZG] sec. 3
-  (:mod:`jaxroll.slices`).
+  (:mod:`jaxroll.engines.slices`).
 
 The strings ``"direct"``, ``"full"``, ``"PD"``, ``"PP"``, ``"SP"`` are shortcuts for the default
 objects. Grids (:class:`jaxroll.grids.AutoGrid`, :class:`jaxroll.grids.FixedGrid`) are explicit:
@@ -33,8 +33,8 @@ import numpy as np
 
 from . import contact as _contact
 from .contact.linear import check_linear_solver
-from . import cylinder, direct, slices, sphere3d
-from .contact_size import check_geometry, estimate_contact_size
+from .engines import cylinder, direct, slices, sphere3d
+from .engines.contact_size import check_geometry, estimate_contact_size
 from .grids import AutoGrid, FixedGrid, check_memory
 from .result import RollingResult
 
@@ -245,7 +245,7 @@ class Full(_GridMethod):
 
     def evaluate(self, material, layer, R, P, V, geometry):
         """``R_r`` [N, or N/m] from the full model of ``geometry``: the contact solved on the grid's
-        window with the model's kernel (:mod:`jaxroll.sphere3d` / :mod:`jaxroll.cylinder`),
+        window with the model's kernel (:mod:`jaxroll.engines.sphere3d` / :mod:`jaxroll.engines.cylinder`),
         ``R_r = (1/R) sum p x dA`` of the solved pressure."""
         model = _FULL_MODELS[geometry]
         size = estimate_contact_size(material, layer, R, P, geometry)
@@ -299,7 +299,7 @@ class Slices(_GridMethod):
         grid: the 1D grid shared by the slices (sized for the middle slice).
         tol, max_steps: contact tolerance (GMRES only) and active-set iteration limit.
         root_tol, root_max_steps: tolerance on ``log d_o`` and iteration limit of the root finds.
-        linear_solver: :class:`jaxroll.slices.Interval` (Levinson tables, fastest),
+        linear_solver: :class:`jaxroll.engines.slices.Interval` (Levinson tables, fastest),
             :class:`jaxroll.contact.Dense` or :class:`jaxroll.contact.GMRES`.
     """
 

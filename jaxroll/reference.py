@@ -34,8 +34,8 @@ import numpy as np
 from jax import lax
 
 from ._numerics import as_float, where_safe
-from .material import StandardLinearSolid
-from .special import i0e, i1e, i2e, k0e, k1e
+from .materials.material import StandardLinearSolid
+from .engines.special import i0e, i1e, i2e, k0e, k1e
 
 __all__ = [
     "hertz_cylinder",
@@ -269,7 +269,7 @@ def exact_cylinder_halfspace(material, radius, load, speed) -> ExactCylinder:
     ``G0, tau, f, radius, load, speed``.
 
     Args:
-        material: :class:`~jaxroll.material.StandardLinearSolid` ``(G0 [Pa], tau [s], f)``.
+        material: :class:`~jaxroll.materials.material.StandardLinearSolid` ``(G0 [Pa], tau [s], f)``.
         radius: cylinder radius ``R`` [m].
         load: ``P'`` [N/m], load per unit length.
         speed: rolling speed ``V >= 0`` [m/s].

@@ -27,9 +27,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import as_float, check_roller_values, input_checks, roller_inputs
-from .layer import Layer
-from .material import AbstractMaterial
-from .contact_size import check_geometry, estimate_contact_size
+from .engines.layer import Layer
+from .materials.material import AbstractMaterial
+from .engines.contact_size import check_geometry, estimate_contact_size
 from .methods import AbstractMethod, Full, Slices, as_method
 from .result import RESULTS, RollingResult, SolverError, ValidityWarning, check_validity, raise_on_failure
 
@@ -59,7 +59,7 @@ def _traced(*trees) -> bool:
 def _check_models(material, layer):
     if not isinstance(material, AbstractMaterial):
         raise ValueError(f"material must be a jaxroll material (jr.StandardLinearSolid, jr.GeneralizedMaxwell, "
-                         f"jr.AtTemperature, ...); got {type(material).__name__}")
+                         f"jr.materials.AtTemperature, ...); got {type(material).__name__}")
     if not isinstance(layer, Layer):
         raise ValueError(f"layer must be a jr.Layer; got {type(layer).__name__}")
 
@@ -155,8 +155,8 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
 
     Args:
         material: a material (``jr.StandardLinearSolid(G0, tau, f)``, ``jr.GeneralizedMaxwell``,
-            ``jr.at_temperature(...)``, any :class:`jaxroll.material.AbstractMaterial`).
-        layer: :class:`jaxroll.layer.Layer` (``H`` [m], ``jnp.inf`` for a half-space).
+            ``jr.at_temperature(...)``, any :class:`jaxroll.materials.material.AbstractMaterial`).
+        layer: :class:`jaxroll.engines.layer.Layer` (``H`` [m], ``jnp.inf`` for a half-space).
         radius: roller radius ``R`` [m].
         load: ``P`` [N] (sphere) or ``P'`` [N/m] (cylinder, per unit length).
         speed: rolling speed ``V`` [m/s], ``>= 0`` (the roller travels toward +x).

@@ -320,13 +320,13 @@ def sweep(
 
         grid = jr.Grid(V=jnp.logspace(-4, 0, 23), P=jnp.linspace(10.0, 150.0, 15))
         mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
-        out = jr.sweep(lambda p: {"tan_delta": jr.tan_delta(mat, p.V / 1e-3), "P": p.P}, grid)
+        out = jr.sweep(lambda p: {"tan_delta": jr.materials.tan_delta(mat, p.V / 1e-3), "P": p.P}, grid)
         out["tan_delta"].shape  # (23, 15)
 
         # gradient of a sum over the sweep w.r.t. shared parameters (closure)
         def total(G0):
             m = jr.StandardLinearSolid(G0, 0.25, 1.0)
-            return jnp.sum(jr.sweep(lambda p: jr.loss_modulus(m, p.V / 1e-3), grid))
+            return jnp.sum(jr.sweep(lambda p: jr.materials.loss_modulus(m, p.V / 1e-3), grid))
         jax.grad(total)(3e6)
     """
     data, run_kw, finish_kw = _prepare(points_or_grid, chunk_size, devices, progress)

@@ -1,9 +1,9 @@
-"""Full models on an infinite layer: the aperiodic influence coefficients (jaxroll.aperiodic).
+"""Full models on an infinite layer: the aperiodic influence coefficients (jaxroll.engines.aperiodic).
 
 Oracles, all independent of the quadrature under test:
 * closed forms: the plane-strain strip on an elastic half-space (``u ~ (x+b) ln|x+b| - (x-b)
   ln|x-b|``, defined up to a constant) and Love's uniformly loaded rectangle on a 3D half-space;
-* the periodic alias sums of jaxroll.contact / jaxroll.sphere3d (a different construction: a
+* the periodic alias sums of jaxroll.contact / jaxroll.engines.sphere3d (a different construction: a
   DFT over the period) as the period grows: they must converge to the aperiodic coefficients;
 * the exact viscoelastic cylinder on a standard-linear-solid half-space (Hunter's problem);
 * material identities (a one-term Prony series is the standard linear solid) and elastic limits;
@@ -18,9 +18,10 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-from jaxroll import aperiodic, contact, sphere3d
-from jaxroll.cylinder import compliance_function
-from jaxroll.layer import static_compliance
+from jaxroll.engines import aperiodic, sphere3d
+from jaxroll import contact
+from jaxroll.engines.cylinder import compliance_function
+from jaxroll.engines.layer import static_compliance
 from jaxroll.result import ValidityWarning
 
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
@@ -134,7 +135,7 @@ def test_full_2d_infinite_layer_matches_the_exact_cylinder(zeta):
     a0 = np.sqrt(P * R / (np.pi * 3e6))
     V = zeta * a0 / 0.25
     r = _cylinder(SLS, V)
-    exact = float(jr.exact_cylinder_halfspace(SLS, radius=R, load=P, speed=V).rolling_resistance)
+    exact = float(jr.reference.exact_cylinder_halfspace(SLS, radius=R, load=P, speed=V).rolling_resistance)
     assert bool(r.valid)
     assert abs(float(r.value) / exact - 1) < 5e-3
 

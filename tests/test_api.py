@@ -118,7 +118,7 @@ def test_resolve_covers_the_envelope_and_matches_eager_autogrid():
     assert env.grid.period is None
     env = jr.Full(grid=jr.AutoGrid(period="auto")).resolve(SLS, layer, radius=R, loads=[10.0, 150.0],
                                                            speeds=[1e-4, 0.1])
-    r10, r150 = (float(jr.estimate_contact_size(SLS, layer, R, P)) for P in (10.0, 150.0))
+    r10, r150 = (float(jr.engines.contact_size.estimate_contact_size(SLS, layer, R, P)) for P in (10.0, 150.0))
     assert float(env.grid.spacing) == pytest.approx(r10 / 12, rel=1e-12)
     assert env.grid.window * float(env.grid.spacing) >= 2 * 1.25 * r150
     assert env.grid.period[0] >= 20 * max(r150, 0.1 * 0.25)
@@ -197,9 +197,9 @@ def test_method_objects_are_static_hashable_configuration():
 
 def test_material_protocol():
     with pytest.raises(TypeError):
-        jr.AbstractMaterial()
+        jr.materials.AbstractMaterial()
 
-    class Elastic(jr.AbstractMaterial):
+    class Elastic(jr.materials.AbstractMaterial):
         """A user's material: elastic, G* = G (no dissipation)."""
 
         G: float
@@ -222,7 +222,7 @@ def test_material_protocol():
     res = jr.rolling_resistance(Elastic(3e6), jr.Layer(0.03), radius=R, load=100.0, speed=0.01, method="full")
     assert abs(float(res.value)) < 1e-10 * 100.0  # elastic: no rolling resistance
     # the characteristic time that grid rules need: retardation time, shifted with temperature
-    a_T = float(jr.shift_factor(jr.WLF(8.86, 101.6, 293.15), 303.15))
+    a_T = float(jr.materials.shift_factor(jr.WLF(8.86, 101.6, 293.15), 303.15))
     assert float(HOT.longest_time()) == pytest.approx(0.25 * a_T, rel=1e-14)
     assert float(SLS.to_prony().longest_time()) == pytest.approx(0.25, rel=1e-14)
     with pytest.raises(ValueError, match="must be a jaxroll material"):
@@ -244,7 +244,7 @@ def test_throw_raises_with_the_reason_and_result_codes_survive_vmap():
 
 def test_newton_root_returns_the_root_it_reached():
     # a Newton step of ~1e-16 from the root must not be replaced by a bisection of the bracket
-    b1, b2 = jr.jaffar_coefficients(0.5)
+    b1, b2 = jr.engines.contact_size.jaffar_coefficients(0.5)
     g0 = 1.0626585691826114
 
     def h(z):

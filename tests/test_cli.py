@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-from jaxroll.cli import main
+from jaxroll.apps.cli import main
 
 
 def _rows(path):
@@ -60,7 +60,7 @@ def test_sweep_outside_validity_writes_valid_0_and_warns(tmp_path, capsys):
 
 # G0 and tau of a sphere on a thick layer are ~99.9 % correlated in rolling-resistance data alone
 # (the identifiability warning is the expected, physical outcome; see tests/test_fit.py)
-@pytest.mark.filterwarnings("ignore::jaxroll.fit.IdentifiabilityWarning")
+@pytest.mark.filterwarnings("ignore::jaxroll.identify.fit.IdentifiabilityWarning")
 def test_fit_from_csv(tmp_path):
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
     layer = jr.Layer(H=0.03, rho=1000.0)
@@ -158,12 +158,12 @@ def test_every_subcommand_rejects_bad_input_in_one_line(argv, name, tmp_path, ca
 def test_checks_inside_compiled_programs_read_as_one_line():
     import jax
 
-    from jaxroll.cli import _runtime_message
+    from jaxroll.apps.cli.options import runtime_message
 
     m, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(0.03)
     with pytest.raises(jax.errors.JaxRuntimeError) as exc:
         jax.jit(lambda P: jr.rolling_resistance(m, layer, radius=0.02, load=P, speed=0.01, method="direct").value)(-5.0)
-    assert _runtime_message(exc.value) == "load P [N, or N/m for cylinders] must be positive and finite"
+    assert runtime_message(exc.value) == "load P [N, or N/m for cylinders] must be positive and finite"
 
 
 def test_bad_physical_input_is_one_line_error(tmp_path, capsys):
@@ -176,7 +176,7 @@ def test_reproduce_passes_selection_and_prints_tables(tmp_path, monkeypatch, cap
     """The command builds the quick settings with the selections and prints both tables (the
     pipeline itself runs in tests/test_reproduce.py; here it is replaced by a stub that runs
     the real report writer on stub results)."""
-    from jaxroll import reproduce as rp
+    from jaxroll.apps import reproduce as rp
 
     seen = {}
 
@@ -207,9 +207,10 @@ def test_reproduce_passes_selection_and_prints_tables(tmp_path, monkeypatch, cap
 
 
 def _method(argv):
-    from jaxroll.cli import _method_from_args, build_parser
+    from jaxroll.apps.cli import build_parser
+    from jaxroll.apps.cli.options import method_from_args
 
-    return _method_from_args(build_parser().parse_args(["curve", *argv]))
+    return method_from_args(build_parser().parse_args(["curve", *argv]))
 
 
 def test_method_options_build_the_method_objects():
@@ -349,7 +350,7 @@ def test_material_writes_the_library_fits_and_every_export(material_dir, capsys)
     rows = _rows(out / "master_curve.csv")
     assert rows[1] == ["rad/s", "Pa", "Pa", "K", "-", "Pa", "Pa"] and len(rows) == 2 + len(sw.omega)
     w, gs = float(rows[5][0]), float(rows[5][5])
-    assert gs == pytest.approx(float(jr.storage_modulus(pf.material, w)), rel=1e-7)
+    assert gs == pytest.approx(float(jr.materials.storage_modulus(pf.material, w)), rel=1e-7)
     G0 = float(pf.material.glassy_modulus())
     abaqus = (out / "material_abaqus.inp").read_text().splitlines()
     assert abaqus[abaqus.index("*ELASTIC, MODULI=INSTANTANEOUS") + 1] == f"{2 * G0 * 1.49:.10g}, 0.49"
@@ -445,7 +446,7 @@ def test_material_reports_and_optionally_drops_the_loss_artifacts(material_dir, 
     sw = jr.read_dma_sweeps(data)
     master = jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15))
     weights = np.ones((len(master.omega), 2))
-    weights[jr.loss_artifacts(master), 1] = 0.0
+    weights[jr.materials.loss_artifacts(master), 1] = 0.0
     want = jr.fit_prony(master, weights=weights).material
     mat, _ = jr.load_material(tmp_path / "material.json")
     np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)

@@ -1,4 +1,4 @@
-"""Tests of the full 2D rolling cylinder (jaxroll.cylinder).
+"""Tests of the full 2D rolling cylinder (jaxroll.engines.cylinder).
 
 Oracles: the exact SLS cylinder on a half-space (jaxroll.reference, docs/validation.md sec. 1), 2D
 Hertz with the relaxed and glassy moduli, the thin incompressible layer closed form, the
@@ -15,8 +15,8 @@ import pytest
 
 import jaxroll as jr
 import jaxroll.grids  # noqa: F401  (jr.grids.union)
-from jaxroll import cylinder as cy
-from jaxroll.direct import direct_rolling_resistance
+from jaxroll.engines import cylinder as cy
+from jaxroll.engines.direct import direct_rolling_resistance
 from jaxroll import reference as ref
 
 G0, TAU, F, R, P = 3e6, 0.25, 1.0, 0.02, 5e3
@@ -36,7 +36,7 @@ def _solve(theta, V, n_cells=N_FIXED, cpr=CPR):
     G, tau, f, H, radius, load = theta
     mat, layer = jr.StandardLinearSolid(G, tau, f), jr.Layer(H)
     grid = _grid(n_cells, cpr)
-    a_est = jr.estimate_contact_size(mat, layer, radius, load, "cylinder")
+    a_est = jr.engines.contact_size.estimate_contact_size(mat, layer, radius, load, "cylinder")
     s = cy.solve(cy.kernel_builder(mat, layer, grid)(V), grid, radius, load, a_est)
     return {
         "Rr": s.resistance,
@@ -174,7 +174,7 @@ def test_direct_method_agrees_as_f_to_zero():
 @pytest.mark.parametrize("H, nu", [(2e-5, 0.5), (3 * A0, 0.3)])
 def test_compliance_function_matches_layer_module(H, nu):
     # cylinder.compliance_function (factorised quasi-static form, custom forward-mode
-    # derivative, half-space branch where all q H >= 40) against jaxroll.layer.surface_compliance
+    # derivative, half-space branch where all q H >= 40) against jaxroll.engines.layer.surface_compliance
     # and its plain reverse-mode gradient, under jit (rho traced: branch chosen by lax.cond) and
     # eagerly (rho concrete). q H spans 0..~1e4; the image-like call has all q H >= 40 unless
     # the layer is thin (H = 2e-5: the layer branch).
@@ -186,10 +186,10 @@ def test_compliance_function_matches_layer_module(H, nu):
         mat, layer = jr.StandardLinearSolid(G, tau, f), jr.Layer(h, nu=nu)
         if k == 0:
             return cy.compliance_function(mat, layer, V)(q)
-        # oracle: the quasi-static path of jaxroll.layer.surface_compliance (taken there for a
+        # oracle: the quasi-static path of jaxroll.engines.layer.surface_compliance (taken there for a
         # concrete rho = 0), differentiated by plain reverse mode
         G_m = jnp.conj(jr.complex_modulus(mat, q * V))
-        return jr.layer.static_compliance(layer, jnp.abs(q)).astype(complex) / G_m
+        return jr.engines.layer.static_compliance(layer, jnp.abs(q)).astype(complex) / G_m
 
     def scalar(theta, q, k):
         t = both(theta, q, k)
@@ -208,7 +208,7 @@ def test_compliance_function_matches_layer_module(H, nu):
     # eagerly (concrete rho: no lax.cond) against surface_compliance itself
     mat, layer = jr.StandardLinearSolid(G0, TAU, F), jr.Layer(H, nu=nu)
     eager = np.asarray(cy.compliance_function(mat, layer, 0.01)(q_base))
-    np.testing.assert_allclose(eager, np.asarray(jr.layer.surface_compliance(layer, mat, q_base, 0.0, 0.01)), rtol=1e-12)
+    np.testing.assert_allclose(eager, np.asarray(jr.engines.layer.surface_compliance(layer, mat, q_base, 0.0, 0.01)), rtol=1e-12)
 
 
 @pytest.mark.parametrize("zeta", [0.3, 1.0, 3.0])

@@ -9,7 +9,7 @@ import pytest
 import scipy.special as ss
 
 import jaxroll as jr
-from jaxroll.direct import settings_for_rtol
+from jaxroll.engines.direct import settings_for_rtol
 
 MAT = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 R = 0.02
@@ -36,7 +36,7 @@ def test_cylinder_halfspace_vs_persson_closed_form(V):
     # oracle: closed form (2 P'^2 dJ/(pi a)) beta [1/2 - I1 K1] (reference module);
     # tolerance: aperiodic quadrature at rtol 1e-4 (measured worst 4e-6)
     res = rr(load=1000.0, speed=V, geometry="cylinder")
-    ref = float(jr.persson_cylinder_halfspace(MAT, R, 1000.0, V))
+    ref = float(jr.reference.persson_cylinder_halfspace(MAT, R, 1000.0, V))
     assert float(res.value) == pytest.approx(ref, rel=2e-5)
     assert float(res.truncation) < 1e-3
 
@@ -47,10 +47,10 @@ def test_cylinder_halfspace_at_large_v_tau_over_a(zeta):
     # q V tau ~ 1 once V tau/a > 1e4 (-0.9 % at 1e5, -13 % at 1e6, -34 % at 1e8, with a
     # truncation estimate of 2-4 %). Oracle: the closed form; tolerance: the rtol of 1e-4, and
     # the estimate must bound the true error.
-    a = float(jr.hertz_cylinder(1000.0, R, MAT.G0))
+    a = float(jr.reference.hertz_cylinder(1000.0, R, MAT.G0))
     V = zeta * a / float(MAT.tau)
     res = rr(load=1000.0, speed=V, geometry="cylinder")
-    ref = float(jr.persson_cylinder_halfspace(MAT, R, 1000.0, V))
+    ref = float(jr.reference.persson_cylinder_halfspace(MAT, R, 1000.0, V))
     err = abs(float(res.value) / ref - 1)
     assert err < 1e-4 and err <= float(res.truncation) + 1e-10 and bool(res.valid)
 
@@ -60,7 +60,7 @@ def test_sphere_halfspace_vs_persson_integral(V):
     # oracle: 1D scipy integral of the angle-integrated Persson form (reference module);
     # tolerance: aperiodic quadrature at rtol 1e-4 (measured worst 5e-6)
     res = rr(load=50.0, speed=V)
-    ref = jr.persson_sphere_halfspace(MAT, R, 50.0, V)
+    ref = jr.reference.persson_sphere_halfspace(MAT, R, 50.0, V)
     assert float(res.value) == pytest.approx(ref, rel=2e-5)
 
 
@@ -86,7 +86,7 @@ def test_quadrature_converges_and_estimate():
     Rs = jnp.where(Hs < 1e-4, 2000.0, R)
 
     def run(quadrature):
-        f = lambda H, V, P, Rr: jr.direct.direct_rolling_resistance(MAT, jr.Layer(H), radius=Rr, load=P, speed=V,
+        f = lambda H, V, P, Rr: jr.engines.direct.direct_rolling_resistance(MAT, jr.Layer(H), radius=Rr, load=P, speed=V,
                                                              quadrature=quadrature)
         return jax.jit(jax.vmap(f))(Hs, Vs, Ps, Rs)
 
@@ -109,7 +109,7 @@ def _eq37_numpy(layer, P, r_c, Lx, Ly, N, V, model):
     n = np.arange(0, N + 1)[None, :]
     qx, qy = 2 * np.pi * m / Lx, 2 * np.pi * n / Ly
     x = np.sqrt(qx**2 + qy**2) * r_c
-    imT = np.imag(np.asarray(jr.surface_compliance(layer, MAT, jnp.asarray(qx * 1.0), jnp.asarray(qy * 1.0), V)))
+    imT = np.imag(np.asarray(jr.engines.layer.surface_compliance(layer, MAT, jnp.asarray(qx * 1.0), jnp.asarray(qy * 1.0), V)))
     if model == "thick":
         c, f = 6.0, (np.sin(x) - x * np.cos(x)) ** 2 / x**6
     elif model == "thin":
@@ -165,7 +165,7 @@ def test_periodic_vs_aperiodic_high_speed(V, lo, hi):
 def test_cylinder_periodic_converges():
     # oracle: Persson closed form (aperiodic, half-space) at low speed; the 1D series with
     # N = 4000 terms, L = 0.5 m: truncation ~ (x_N)^-1 share of the S^2 ~ x^-3 tail
-    ref = float(jr.persson_cylinder_halfspace(MAT, R, 1000.0, 1e-3))
+    ref = float(jr.reference.persson_cylinder_halfspace(MAT, R, 1000.0, 1e-3))
     per = float(rr(load=1000.0, speed=1e-3, geometry="cylinder", period=0.5, n_terms=4000).value)
     assert per == pytest.approx(ref, rel=2e-3)
 
@@ -213,7 +213,7 @@ BLEND_LOAD = {"sphere": 100.0, "cylinder": 1e4}
 
 
 def _blend_value(H, P, geometry, nu, V=1e-3):
-    return jr.direct.direct_rolling_resistance(MAT, jr.Layer(H, nu=nu), radius=R, load=P, speed=V,
+    return jr.engines.direct.direct_rolling_resistance(MAT, jr.Layer(H, nu=nu), radius=R, load=P, speed=V,
                                                geometry=geometry)
 
 
@@ -227,7 +227,7 @@ def _blend_scan(geometry, nu):
 @pytest.mark.parametrize("geometry", ["sphere", "cylinder"])
 def test_auto_is_continuous_across_the_thick_thin_band(geometry, nu):
     res = _blend_scan(geometry, nu)
-    sel = jax.jit(jax.vmap(lambda H: jr.direct.select_pressure(MAT, jr.Layer(H, nu=nu), R, BLEND_LOAD[geometry],
+    sel = jax.jit(jax.vmap(lambda H: jr.engines.direct.select_pressure(MAT, jr.Layer(H, nu=nu), R, BLEND_LOAD[geometry],
                                                                geometry=geometry)[-1]))
     w = np.asarray(sel(jnp.asarray(BLEND_H)))
     # the scan crosses the whole band: thin only at the thin end, thick only at the thick end
@@ -258,12 +258,12 @@ def test_auto_gradients_inside_the_blend_band(geometry, nu, P):
     # scale of the band, ~5 % in H: truncation ~(1e-5/0.05)^2 = 4e-8 relative, rounding ~1e-11;
     # measured 5e-8 at worst, so rtol 1e-5. (Near the band ends the quintic weight's third
     # derivative jumps: the FD truncation grows there, the gradient is still exact.)
-    w = float(jr.direct.select_pressure(MAT, jr.Layer(5e-3, nu=nu), R, P, geometry=geometry)[-1])
+    w = float(jr.engines.direct.select_pressure(MAT, jr.Layer(5e-3, nu=nu), R, P, geometry=geometry)[-1])
     assert 0.2 < w < 0.8
 
     def fun(p):
         mat = jr.StandardLinearSolid(p["G0"], p["tau"], p["f"])
-        return jr.direct.direct_rolling_resistance(mat, jr.Layer(p["H"], nu=nu), radius=p["R"], load=p["P"],
+        return jr.engines.direct.direct_rolling_resistance(mat, jr.Layer(p["H"], nu=nu), radius=p["R"], load=p["P"],
                                                    speed=p["V"], geometry=geometry).value
 
     _fd_check(fun, dict(G0=3e6, tau=0.25, f=1.0, H=5e-3, R=0.02, P=P, V=0.01), rtol=1e-5)
@@ -280,9 +280,9 @@ def test_auto_gradients_finite_across_the_band():
 
 
 def test_blend_ends_below_gamma_max_for_every_nu():
-    from jaxroll.contact_size import _jaffar_gamma_max
+    from jaxroll.engines.contact_size import _jaffar_gamma_max
 
-    assert all(jr.direct.BLEND_END_GAMMA < _jaffar_gamma_max(float(nu)) - 0.05 for nu in np.linspace(0.0, 0.5, 11))
+    assert all(jr.engines.direct.BLEND_END_GAMMA < _jaffar_gamma_max(float(nu)) - 0.05 for nu in np.linspace(0.0, 0.5, 11))
 
 
 def test_auto_matches_explicit_model():
@@ -419,12 +419,12 @@ def test_option_errors():
 # ---------------------------------------------------------------- the stationary-pressure error
 # The direct method keeps the pressure stationary (Hertz, symmetric, static radius). Its error
 # is physics, not discretisation: measured here against the EXACT viscoelastic cylinder on an SLS
-# half-space (jr.exact_cylinder_halfspace, accurate to 1e-11), as a function of
+# half-space (jr.reference.exact_cylinder_halfspace, accurate to 1e-11), as a function of
 # zeta = V tau/a0 (a0 = static Hertz half-width). The direct values come from the library's
 # aperiodic cylinder quadrature (rtol 1e-6 unless stated: its error is ~1e-6 relative).
 
 PCYL = 1000.0  # N/m
-A0 = float(jr.hertz_cylinder(PCYL, R, 3e6))  # 1.457 mm
+A0 = float(jr.reference.hertz_cylinder(PCYL, R, 3e6))  # 1.457 mm
 ZETAS = (0.001, 0.01, 0.1, 0.3, 1.0, 3.0, 10.0, 100.0, 1e3, 1e4)
 FS = (1.0, 0.1, 0.01)
 
@@ -437,9 +437,9 @@ def _direct_errors(modulus):
     def one(f, zeta):
         mat = jr.StandardLinearSolid(3e6, 0.25, f)
         V = zeta * A0 / 0.25
-        d = jr.direct.direct_rolling_resistance(mat, HALF, radius=R, load=PCYL, speed=V, geometry="cylinder",
+        d = jr.engines.direct.direct_rolling_resistance(mat, HALF, radius=R, load=PCYL, speed=V, geometry="cylinder",
                                          modulus=modulus, rtol=1e-6).value
-        return d / jr.exact_cylinder_halfspace(mat, R, PCYL, V).rolling_resistance - 1.0
+        return d / jr.reference.exact_cylinder_halfspace(mat, R, PCYL, V).rolling_resistance - 1.0
 
     f, z = np.meshgrid(np.asarray(FS), np.asarray(ZETAS), indexing="ij")
     out = jax.jit(jax.vmap(one))(jnp.asarray(f.ravel()), jnp.asarray(z.ravel()))

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-from jaxroll.fit import DataWarning
+from jaxroll.identify.fit import DataWarning
 
 DATA = Path(__file__).resolve().parents[1] / "fitting" / "data" / "pyvisco_freq_user_raw.csv"
 
@@ -124,7 +124,7 @@ def test_shift_factors_recover_known_wlf(synthetic):
     sw, sh = synthetic
     assert sh.reference == 5
     # the truth at each set's measured mean temperature, re-referenced to the reference set's
-    true = np.log10(np.asarray(jr.shift_factor(TRUE_WLF, sh.temperature)))
+    true = np.log10(np.asarray(jr.materials.shift_factor(TRUE_WLF, sh.temperature)))
     true -= true[sh.reference]
     err = sh.log10_aT - true
     # 1 % noise and a 15 % low first point in every third set: each step within 0.1 decade
@@ -164,8 +164,8 @@ def test_arrhenius_fit_recovers_activation_energy(tmp_path):
     sw = jr.read_dma_sweeps(_write_sweeps(tmp_path / "a.csv"))
     # rebuild the sweeps with the Arrhenius shift instead of WLF (same noise-free material)
     g = np.asarray(jr.complex_modulus(jr.at_temperature(TRUE_MAT, true, sw.temperature), sw.omega))
-    sw = jr.DMASweeps(sw.omega, g.real, g.imag, sw.temperature, sw.set, sw.set_temperature)
-    fit = jr.fit_arrhenius(jr.fit_shift_factors(sw, T_ref=293.15))
+    sw = jr.materials.DMASweeps(sw.omega, g.real, g.imag, sw.temperature, sw.set, sw.set_temperature)
+    fit = jr.materials.fit_arrhenius(jr.fit_shift_factors(sw, T_ref=293.15))
     assert abs(fit.params["activation_energy"] / 2.0e5 - 1) < 0.005
 
 
@@ -173,7 +173,7 @@ def test_shift_needs_two_sets_and_valid_moduli_choice(synthetic):
     sw, _ = synthetic
     with pytest.raises(ValueError, match="moduli must be"):
         jr.fit_shift_factors(sw, moduli="tan")
-    one = jr.DMASweeps(sw.omega[:10], sw.storage[:10], sw.loss[:10], sw.temperature[:10], sw.set[:10],
+    one = jr.materials.DMASweeps(sw.omega[:10], sw.storage[:10], sw.loss[:10], sw.temperature[:10], sw.set[:10],
                        sw.set_temperature[:1])
     with pytest.raises(ValueError, match="two or more temperatures"):
         jr.fit_shift_factors(one)
@@ -192,7 +192,7 @@ def test_one_term_prony_recovered():
     true = jr.StandardLinearSolid(G0=1e6, tau=0.02, f=2.0).to_prony()
     w = np.logspace(-1, 5, 40)
     g = np.asarray(jr.complex_modulus(true, w))
-    master = jr.MasterCurve(w, g.real, g.imag, np.zeros(w.size, int), 293.15)
+    master = jr.materials.MasterCurve(w, g.real, g.imag, np.zeros(w.size, int), 293.15)
     fit = jr.fit_prony(master, n_terms=1)
     assert fit.n_terms == 1
     np.testing.assert_allclose(float(fit.material.G_inf), 1e6, rtol=1e-6)
@@ -229,7 +229,7 @@ def test_prony_weights_leave_values_out():
     g = np.asarray(jr.complex_modulus(true, w))
     loss = g.imag.copy()
     loss[7] *= 100.0
-    master = jr.MasterCurve(w, g.real, loss, np.zeros(w.size, int), 293.15)
+    master = jr.materials.MasterCurve(w, g.real, loss, np.zeros(w.size, int), 293.15)
     weights = np.ones((w.size, 2))
     weights[7, 1] = 0.0
     fit = jr.fit_prony(master, n_terms=1, weights=weights)
@@ -257,18 +257,18 @@ def test_loss_artifacts_flag_a_top_frequency_upturn_and_nothing_in_clean_sweeps(
         sw = jr.read_dma_sweeps(_write_sweeps(tmp_path / f"{name}.csv", upturn=upturn, material=smooth))
         sh = jr.fit_shift_factors(sw, T_ref=293.15)  # storage only: the same shifts for both files
         m = jr.master_curve(sw, sh)
-        flagged = jr.loss_artifacts(m)
+        flagged = jr.materials.loss_artifacts(m)
         top = np.isclose(m.frequency, 2 * np.pi * FREQS_HZ[-1])
         np.testing.assert_array_equal(flagged, top if upturn > 1 else np.zeros_like(top))
         weights = np.ones((len(m.omega), 2))
         weights[flagged, 1] = 0.0
         fits[name] = (m, jr.fit_prony(m), jr.fit_prony(m, weights=weights))
     m, _, _ = fits["bent"]
-    w = np.logspace(np.log10(m.omega.min()), np.log10(m.omega[~jr.loss_artifacts(m)].max()), 200)
-    want = np.asarray(jr.loss_modulus(jr.at_temperature(smooth, TRUE_WLF, 293.15), w))
+    w = np.logspace(np.log10(m.omega.min()), np.log10(m.omega[~jr.materials.loss_artifacts(m)].max()), 200)
+    want = np.asarray(jr.materials.loss_modulus(jr.at_temperature(smooth, TRUE_WLF, 293.15), w))
 
     def loss_error(fit):
-        return float(np.sqrt(np.mean(np.log(np.asarray(jr.loss_modulus(fit.material, w)) / want) ** 2)))
+        return float(np.sqrt(np.mean(np.log(np.asarray(jr.materials.loss_modulus(fit.material, w)) / want) ** 2)))
 
     _, kept, dropped = fits["bent"]
     clean = loss_error(fits["clean"][1])
@@ -285,7 +285,7 @@ def test_loss_artifacts_of_the_shipped_file_are_its_100_hz_loss_values():
     loss itself, which by Kramers-Kronig asks for a steeper G' than measured."""
     sw = jr.read_dma_sweeps(DATA)
     m = jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15))
-    flagged = jr.loss_artifacts(m)
+    flagged = jr.materials.loss_artifacts(m)
     np.testing.assert_array_equal(flagged, np.isclose(m.frequency, 2 * np.pi * 100.0, rtol=1e-6))
     weights = np.ones((len(m.omega), 2))
     weights[flagged, 1] = 0.0
@@ -298,7 +298,7 @@ def test_loss_artifacts_of_the_shipped_file_are_its_100_hz_loss_values():
     assert rms(dropped, 0, slice(None)) < rms(kept, 0, slice(None)) - 0.01
     assert 3.9e9 < float(dropped.material.glassy_modulus()) < float(kept.material.glassy_modulus())
     with pytest.raises(ValueError, match="measured frequency"):
-        jr.loss_artifacts(jr.MasterCurve(m.omega, m.storage, m.loss, m.set, m.T_ref))
+        jr.materials.loss_artifacts(jr.materials.MasterCurve(m.omega, m.storage, m.loss, m.set, m.T_ref))
 
 
 # ---------------------------------------------------------------------------------------- exports
@@ -325,7 +325,7 @@ def test_save_load_round_trip(tmp_path, suffix):
 def test_abaqus_and_ansys_exports(tmp_path):
     mat, wlf = _material(), jr.WLF(C1=9.1, C2=105.3, T_ref=298.15)
     G0 = 1.25e6 + 3.5e6 + 1.1e7 + 2.2e8
-    jr.write_abaqus(mat, tmp_path / "m.inp", shift=wlf, poisson=0.49)
+    jr.materials.write_abaqus(mat, tmp_path / "m.inp", shift=wlf, poisson=0.49)
     lines = (tmp_path / "m.inp").read_text().splitlines()
     i = lines.index("*VISCOELASTIC, TIME=PRONY")
     table = np.array([[float(v) for v in ln.split(",")] for ln in lines[i + 1 : i + 4]])
@@ -338,7 +338,7 @@ def test_abaqus_and_ansys_exports(tmp_path):
     assert lines[i + 4] == "*TRS, DEFINITION=WLF"
     np.testing.assert_allclose([float(v) for v in lines[i + 5].split(",")], [298.15, 9.1, 105.3])
 
-    jr.write_ansys(mat, tmp_path / "m.mac", shift=wlf)
+    jr.materials.write_ansys(mat, tmp_path / "m.mac", shift=wlf)
     text = (tmp_path / "m.mac").read_text().splitlines()
     assert "TB,PRONY,1,,3,SHEAR" in text
     data = [ln for ln in text if ln.startswith("TBDATA,1,") and "TB,SHIFT" not in ln]
@@ -413,7 +413,7 @@ def test_peer_pyvisco(shipped):
     C1, C2 = float(pv_wlf["C1"].iloc[0]), float(pv_wlf["C2"].iloc[0])
     assert abs(wlf.params["C1"] / C1 - 1) < 0.1 and abs(wlf.params["C2"] / C2 - 1) < 0.1
     dT = sh.temperature - 298.15
-    ours = np.log10(np.asarray(jr.shift_factor(wlf.shift, sh.temperature)))
+    ours = np.log10(np.asarray(jr.materials.shift_factor(wlf.shift, sh.temperature)))
     assert np.max(np.abs(ours - (-C1 * dT / (C2 + dT)))) < 0.45 and wlf.rms > 0.45
 
     E0, a, tau = prony["E_0"] * 1e6, prony["df_terms"]["alpha_i"].values, prony["df_terms"]["tau_i"].values
@@ -425,7 +425,7 @@ def test_peer_pyvisco(shipped):
     m = jr.master_curve(sw, sh)
     w = np.logspace(np.log10(m.omega.min()), np.log10(m.omega.max()), 200)
     es, _ = pv_moduli(w)
-    ours = 3.0 * np.asarray(jr.storage_modulus(pf.material, w))  # E = 2 (1 + 0.5) G
+    ours = 3.0 * np.asarray(jr.materials.storage_modulus(pf.material, w))  # E = 2 (1 + 0.5) G
     rel = np.log(ours / es)
     assert np.max(np.abs(rel)) < 0.25 and np.sqrt(np.mean(rel**2)) < 0.12
     wm = df_master["omega"].values

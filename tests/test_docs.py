@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from jaxroll.cli import build_parser
+from jaxroll.apps.cli import build_parser
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = ["README.md", "fitting/README.md"]
@@ -92,7 +92,7 @@ def _runnable():
 def test_shell_commands_run(line, tmp_path):
     words = shlex.split(line)
     if words[0] == "jaxroll":
-        words = [sys.executable, "-m", "jaxroll.cli", *words[1:]]
+        words = [sys.executable, "-m", "jaxroll.apps.cli", *words[1:]]
     else:  # python fitting/...: would rewrite the shipped data; run a copy of the script elsewhere
         words = [sys.executable, str(REPO / words[1]), *words[2:], "--out", str(tmp_path)]
     # --out paths of the examples land in tmp_path; data paths are relative to the repository

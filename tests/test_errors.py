@@ -17,7 +17,7 @@ import pytest
 
 import jaxroll as jr
 from jaxroll import _compilation_cache, grids
-from jaxroll.cli import _runtime_message
+from jaxroll.apps.cli.options import runtime_message
 
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 THIN = jr.Layer(0.005)  # at 150 N, R = 2 cm: gamma > 0.9, outside Jaffar's thick-layer model
@@ -57,7 +57,7 @@ def test_under_jit_the_failure_carries_the_same_line():
     code = jr.RESULTS.outside_pressure_model
     with pytest.raises(jax.errors.JaxRuntimeError) as exc:
         jax.block_until_ready(jax.jit(lambda P: _direct(P).value)(150.0))
-    assert _runtime_message(exc.value) == jr.SolverError.message(code)
+    assert runtime_message(exc.value) == jr.SolverError.message(code)
 
 
 def test_front_door_programs_hold_no_host_callbacks_for_concrete_inputs():
@@ -108,7 +108,7 @@ _PROBE = textwrap.dedent("""
     jax.monitoring.register_event_listener(lambda name, **kw: events.append(name))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)  # store even a tiny program
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
-    jax.block_until_ready(jax.jit(lambda w: jr.storage_modulus(mat, w))(jax.numpy.linspace(1.0, 2.0, 7)))
+    jax.block_until_ready(jax.jit(lambda w: jr.materials.storage_modulus(mat, w))(jax.numpy.linspace(1.0, 2.0, 7)))
     print(json.dumps({"dir": jax.config.jax_compilation_cache_dir,
                       "hits": events.count("/jax/compilation_cache/cache_hits")}))
 """)
@@ -173,7 +173,7 @@ def _write(path, text):
 def test_budget_is_half_the_available_memory_without_limits(limits):
     budget, source = grids.memory_limit()
     assert budget == 8 * GiB and "available memory" in source
-    assert jr.memory_budget() == budget
+    assert jr.grids.memory_budget() == budget
 
 
 def test_budget_honours_the_cgroup_v2_limit(limits):

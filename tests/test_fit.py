@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-import jaxroll.fit
-from jaxroll.fit import DMAData, IdentifiabilityWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv
+import jaxroll.identify.fit
+from jaxroll.identify.fit import DMAData, IdentifiabilityWarning, RollingData, fit_material, read_dma_csv, read_rolling_csv
 
 TRUE = jr.StandardLinearSolid(G0=3e6, tau=0.25, f=1.0)
 
@@ -258,8 +258,8 @@ def test_repeated_fits_reuse_the_compiled_model(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)
         fit_material(RollingData(*_direct_data(7)), initial=jr.StandardLinearSolid(2e6, 0.4, 0.6), **kw)
-        residuals = jaxroll.fit._residuals  # runs only while a program is traced
-        monkeypatch.setattr(jaxroll.fit, "_residuals", lambda *a: traced.append(1) or residuals(*a))
+        residuals = jaxroll.identify.fit._residuals  # runs only while a program is traced
+        monkeypatch.setattr(jaxroll.identify.fit, "_residuals", lambda *a: traced.append(1) or residuals(*a))
         b = fit_material(RollingData(*_direct_data(8)), initial=jr.StandardLinearSolid(4e6, 0.2, 1.5), **kw)
     # other data values and initial values, same static structure: nothing is traced again
     assert traced == []

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-from jaxroll.layer import transfer_compressible, transfer_incompressible
+from jaxroll.engines.layer import transfer_compressible, transfer_incompressible
 
 from _oracles import transfer_expm_compressible, transfer_expm_incompressible
 
@@ -75,7 +75,7 @@ def test_surface_compliance_public_api_matches_oracle_with_mode_modulus():
     for qx, qy in [(300.0, 0.0), (300.0, 400.0), (2000.0, -1500.0), (-300.0, 100.0)]:
         G = complex(np.conj(complex(jr.complex_modulus(MAT, qx * V))))
         ref = transfer_expm_incompressible(qx, qy, 0.005, G, 1100.0, V)
-        val = complex(jr.surface_compliance(layer, MAT, qx, qy, V))
+        val = complex(jr.engines.layer.surface_compliance(layer, MAT, qx, qy, V))
         assert abs(val - ref) <= 1e-12 * abs(ref)
         assert val.real > 0
         # dissipation sign: Im T > 0 when qx V > 0, < 0 when qx V < 0
@@ -134,7 +134,7 @@ def test_zero_mode_and_halfspace_are_finite_with_finite_gradients():
     mat = MAT
     for layer in [jr.Layer(H=0.01, rho=1000.0), jr.Layer(H=jnp.inf, rho=1000.0), jr.Layer(H=0.01, nu=0.3),
                   jr.Layer(H=jnp.inf, nu=0.3)]:
-        t = jr.surface_compliance(layer, mat, 0.0, 0.0, 1.0)
+        t = jr.engines.layer.surface_compliance(layer, mat, 0.0, 0.0, 1.0)
         assert t == 0 or layer.nu < 0.5 and jnp.isfinite(t)
 
         def f(params):
@@ -142,7 +142,7 @@ def test_zero_mode_and_halfspace_are_finite_with_finite_gradients():
             m = jr.StandardLinearSolid(G0, tau, f_)
             qx = jnp.asarray([0.0, 0.0, 1e-3, 50.0, 1e5])
             qy = jnp.asarray([0.0, 1.0, 0.0, 20.0, 0.0])
-            T = jr.surface_compliance(layer, m, qx, qy, V)
+            T = jr.engines.layer.surface_compliance(layer, m, qx, qy, V)
             return jnp.sum(jnp.real(T) * 1e9 + jnp.imag(T) * 1e9)
 
         g = jax.grad(f)((3e6, 0.25, 1.0, 1.0))
@@ -177,7 +177,7 @@ def test_gradients_match_central_differences(layer_kw):
     qy = jnp.asarray([0.0, 300.0, 1000.0])
 
     def T(H, G0, tau, f, V):
-        return jr.surface_compliance(jr.Layer(H=H, **layer_kw), jr.StandardLinearSolid(G0, tau, f), qx, qy, V)
+        return jr.engines.layer.surface_compliance(jr.Layer(H=H, **layer_kw), jr.StandardLinearSolid(G0, tau, f), qx, qy, V)
 
     x0 = dict(H=0.004, G0=3e6, tau=0.02, f=1.0, V=5.0)
     for name in x0:
@@ -203,30 +203,30 @@ def test_vmap_over_mode_grid_and_batches():
     m = jnp.arange(-20.0, 21.0)
     qx, qy = jnp.meshgrid(2 * jnp.pi * m / 0.2, 2 * jnp.pi * m / 0.2, indexing="ij")
     speeds = jnp.asarray([1e-3, 0.1, 1.0])
-    batched = jax.vmap(lambda V: jr.surface_compliance(layer, MAT, qx, qy, V))(speeds)
-    looped = jnp.stack([jr.surface_compliance(layer, MAT, qx, qy, V) for V in speeds])
+    batched = jax.vmap(lambda V: jr.engines.layer.surface_compliance(layer, MAT, qx, qy, V))(speeds)
+    looped = jnp.stack([jr.engines.layer.surface_compliance(layer, MAT, qx, qy, V) for V in speeds])
     np.testing.assert_array_equal(batched, looped)
     thick = jnp.asarray([0.002, 0.005, 0.03])
-    by_h = jax.vmap(lambda H: jr.surface_compliance(jr.Layer(H=H, rho=1000.0), MAT, qx, qy, 0.1))(thick)
+    by_h = jax.vmap(lambda H: jr.engines.layer.surface_compliance(jr.Layer(H=H, rho=1000.0), MAT, qx, qy, 0.1))(thick)
     assert by_h.shape == (3, 41, 41)
     np.testing.assert_array_equal(by_h[1], batched[1])
-    mats = jax.vmap(lambda G0: jr.surface_compliance(layer, jr.StandardLinearSolid(G0, 0.25, 1.0), 100.0, 0.0, 0.1))(
+    mats = jax.vmap(lambda G0: jr.engines.layer.surface_compliance(layer, jr.StandardLinearSolid(G0, 0.25, 1.0), 100.0, 0.0, 0.1))(
         jnp.asarray([1e6, 3e6])
     )
     assert mats.shape == (2,)
     # quasi-static, sign: Im T > 0 for qx V > 0 and Im T(-qx) = -Im T(qx)
-    t = jr.surface_compliance(layer, MAT, qx, qy, 0.1)
+    t = jr.engines.layer.surface_compliance(layer, MAT, qx, qy, 0.1)
     np.testing.assert_allclose(t[::-1, :], jnp.conj(t), rtol=1e-14)
 
 
 def test_supersonic_speed_is_rejected():
     layer = jr.Layer(H=0.005, rho=1000.0)
-    c_s = float(jr.shear_wave_speed(layer, MAT))
+    c_s = float(jr.engines.layer.shear_wave_speed(layer, MAT))
     assert c_s == pytest.approx(np.sqrt(3e6 / 1000.0), rel=1e-15)
     with pytest.raises(Exception, match="shear-wave speed"):
-        jr.surface_compliance(layer, MAT, 100.0, 0.0, 1.01 * c_s)
+        jr.engines.layer.surface_compliance(layer, MAT, 100.0, 0.0, 1.01 * c_s)
     with pytest.raises(Exception, match="shear-wave speed"):
-        jax.jit(lambda V: jr.surface_compliance(layer, MAT, 100.0, 0.0, V))(c_s)
+        jax.jit(lambda V: jr.engines.layer.surface_compliance(layer, MAT, 100.0, 0.0, V))(c_s)
 
 
 def test_bad_layers_are_rejected():
@@ -245,8 +245,8 @@ def test_bad_layers_are_rejected():
 
 def test_float32_inputs_are_computed_in_float64():
     layer = jr.Layer(H=0.005, rho=1000.0)
-    t32 = jr.surface_compliance(layer, MAT, jnp.asarray(123.4, dtype=jnp.float32), 0.0, jnp.asarray(0.3, jnp.float32))
-    t64 = jr.surface_compliance(layer, MAT, float(np.float32(123.4)), 0.0, float(np.float32(0.3)))
+    t32 = jr.engines.layer.surface_compliance(layer, MAT, jnp.asarray(123.4, dtype=jnp.float32), 0.0, jnp.asarray(0.3, jnp.float32))
+    t64 = jr.engines.layer.surface_compliance(layer, MAT, float(np.float32(123.4)), 0.0, float(np.float32(0.3)))
     assert t32.dtype == jnp.complex128
     assert t32 == t64
 
@@ -258,7 +258,7 @@ def test_static_factorisation_equals_general_path(nu):
     q = jnp.concatenate([jnp.zeros(1), jnp.logspace(-3, 7, 101)])
     G = jnp.asarray(2.7e6 * np.exp(-0.6j))
     for H in (0.004, jnp.inf):
-        t1 = jr.layer.static_compliance(jr.Layer(H=H, nu=nu), q)
+        t1 = jr.engines.layer.static_compliance(jr.Layer(H=H, nu=nu), q)
         if nu == 0.5:
             ref = transfer_incompressible(q, H, G, jnp.zeros(q.shape, jnp.complex128))
         else:
@@ -267,8 +267,8 @@ def test_static_factorisation_equals_general_path(nu):
     # and the public function with a traced density (general path) equals the static path
     layer = jr.Layer(H=0.004)
     qx, qy = jnp.asarray([0.0, 10.0, 1e3, 1e5]), jnp.asarray([0.0, 5.0, 0.0, 3e4])
-    static = jr.surface_compliance(layer, MAT, qx, qy, 0.2)
-    general = jax.jit(lambda rho: jr.surface_compliance(jr.Layer(H=0.004, rho=rho), MAT, qx, qy, 0.2))(0.0)
+    static = jr.engines.layer.surface_compliance(layer, MAT, qx, qy, 0.2)
+    general = jax.jit(lambda rho: jr.engines.layer.surface_compliance(jr.Layer(H=0.004, rho=rho), MAT, qx, qy, 0.2))(0.0)
     np.testing.assert_allclose(static, general, rtol=1e-14, atol=0)
 
 
@@ -277,7 +277,7 @@ def test_layer_built_under_jit_keeps_its_literal_density():
     time (otherwise every compliance call silently takes the ~5x slower inertia path; measured:
     a jitted 3D solve 37 -> 11 ms, its value_and_grad 146 -> 17 ms). Values are identical either
     way (the general path with rho = 0 is checked against the factorised one elsewhere)."""
-    from jaxroll.layer import is_quasistatic
+    from jaxroll.engines.layer import is_quasistatic
 
     seen = []
 

@@ -19,26 +19,26 @@ def test_sls_matches_paper_eq12_storage_and_loss():
     # [ZG] eq. 12 written out (independent of the complex form)
     Gp = G0 * (1 + f) * ((1 + f) + w**2 * tau**2) / ((1 + f) ** 2 + w**2 * tau**2)
     Gpp = G0 * (1 + f) * f * w * tau / ((1 + f) ** 2 + w**2 * tau**2)
-    np.testing.assert_allclose(jr.storage_modulus(SLS, w), Gp, rtol=1e-14)
-    np.testing.assert_allclose(jr.loss_modulus(SLS, w), Gpp, rtol=1e-14)
-    np.testing.assert_allclose(jr.tan_delta(SLS, w), Gpp / Gp, rtol=1e-14)
+    np.testing.assert_allclose(jr.materials.storage_modulus(SLS, w), Gp, rtol=1e-14)
+    np.testing.assert_allclose(jr.materials.loss_modulus(SLS, w), Gpp, rtol=1e-14)
+    np.testing.assert_allclose(jr.materials.tan_delta(SLS, w), Gpp / Gp, rtol=1e-14)
 
 
 @pytest.mark.parametrize("mat", [SLS, PRONY])
 def test_limits_and_positive_loss(mat):
-    relaxed, glassy = float(jr.relaxed_modulus(mat)), float(jr.glassy_modulus(mat))
-    assert jr.storage_modulus(mat, 1e-12) == pytest.approx(relaxed, rel=1e-12)
-    assert jr.storage_modulus(mat, 1e12) == pytest.approx(glassy, rel=1e-9)
+    relaxed, glassy = float(jr.materials.relaxed_modulus(mat)), float(jr.materials.glassy_modulus(mat))
+    assert jr.materials.storage_modulus(mat, 1e-12) == pytest.approx(relaxed, rel=1e-12)
+    assert jr.materials.storage_modulus(mat, 1e12) == pytest.approx(glassy, rel=1e-9)
     w = np.logspace(-6, 6, 200)
-    assert np.all(np.asarray(jr.loss_modulus(mat, w)) > 0)
-    assert np.all(np.asarray(jr.loss_modulus(mat, -w)) < 0)  # G*(-w) = conj G*(w)
-    assert jr.relaxation_modulus(mat, 0.0) == pytest.approx(glassy, rel=1e-14)
-    assert jr.relaxation_modulus(mat, 1e6) == pytest.approx(relaxed, rel=1e-14)
+    assert np.all(np.asarray(jr.materials.loss_modulus(mat, w)) > 0)
+    assert np.all(np.asarray(jr.materials.loss_modulus(mat, -w)) < 0)  # G*(-w) = conj G*(w)
+    assert jr.materials.relaxation_modulus(mat, 0.0) == pytest.approx(glassy, rel=1e-14)
+    assert jr.materials.relaxation_modulus(mat, 1e6) == pytest.approx(relaxed, rel=1e-14)
 
 
 def test_sls_glassy_and_relaxed():
-    assert float(jr.relaxed_modulus(SLS)) == 3e6
-    assert float(jr.glassy_modulus(SLS)) == 6e6  # f = G'(inf)/G'(0) - 1 (eq. 12, not the text)
+    assert float(jr.materials.relaxed_modulus(SLS)) == 3e6
+    assert float(jr.materials.glassy_modulus(SLS)) == 6e6  # f = G'(inf)/G'(0) - 1 (eq. 12, not the text)
 
 
 def test_sls_equals_one_term_prony():
@@ -46,16 +46,16 @@ def test_sls_equals_one_term_prony():
     w = np.logspace(-5, 5, 101)
     np.testing.assert_allclose(jr.complex_modulus(p, w), jr.complex_modulus(SLS, w), rtol=1e-14)
     t = np.logspace(-4, 2, 50)
-    np.testing.assert_allclose(jr.relaxation_modulus(p, t), jr.relaxation_modulus(SLS, t), rtol=1e-14)
+    np.testing.assert_allclose(jr.materials.relaxation_modulus(p, t), jr.materials.relaxation_modulus(SLS, t), rtol=1e-14)
 
 
 @pytest.mark.parametrize("mat", [SLS, PRONY])
 def test_relaxation_and_complex_modulus_consistent_by_fourier_transform(mat):
     """G*(w) = G(inf) + i w int_0^inf (G(t) - G(inf)) e^{-i w t} dt, by quadrature."""
-    g_inf = float(jr.relaxed_modulus(mat))
+    g_inf = float(jr.materials.relaxed_modulus(mat))
 
     def dG(t):
-        return float(jr.relaxation_modulus(mat, t)) - g_inf
+        return float(jr.materials.relaxation_modulus(mat, t)) - g_inf
 
     t_max = 40.0 * float(jnp.max(jnp.atleast_1d(mat.tau)))  # dG(t_max) < 1e-17 dG(0)
     for w in [0.1, 3.0, 50.0, 700.0]:
@@ -69,24 +69,24 @@ def test_relaxation_and_complex_modulus_consistent_by_fourier_transform(mat):
 
 def test_wlf_and_arrhenius_shift():
     wlf = jr.WLF(C1=8.86, C2=101.6, T_ref=300.0)
-    assert float(jr.shift_factor(wlf, 300.0)) == 1.0
+    assert float(jr.materials.shift_factor(wlf, 300.0)) == 1.0
     T = 320.0
     expected = 10 ** (-8.86 * 20.0 / (101.6 + 20.0))
-    assert float(jr.shift_factor(wlf, T)) == pytest.approx(expected, rel=1e-14)
+    assert float(jr.materials.shift_factor(wlf, T)) == pytest.approx(expected, rel=1e-14)
     hot = jr.at_temperature(SLS, wlf, T)
     w = np.logspace(-2, 3, 11)
     np.testing.assert_allclose(jr.complex_modulus(hot, w), jr.complex_modulus(SLS, w * expected), rtol=1e-14)
     np.testing.assert_allclose(
-        jr.relaxation_modulus(hot, w), jr.relaxation_modulus(SLS, w / expected), rtol=1e-14
+        jr.materials.relaxation_modulus(hot, w), jr.materials.relaxation_modulus(SLS, w / expected), rtol=1e-14
     )
     arr = jr.Arrhenius(activation_energy=80e3, T_ref=300.0)
-    a = float(jr.shift_factor(arr, 280.0))
+    a = float(jr.materials.shift_factor(arr, 280.0))
     assert a == pytest.approx(np.exp(80e3 / 8.314462618 * (1 / 280.0 - 1 / 300.0)), rel=1e-14)
     assert a > 1  # colder: slower, so the reference curve is read at a higher frequency
     with pytest.raises(Exception, match="WLF"):
-        jr.shift_factor(wlf, 300.0 - 101.6)
+        jr.materials.shift_factor(wlf, 300.0 - 101.6)
     with pytest.raises(Exception, match="kelvin"):
-        jr.shift_factor(arr, -5.0)
+        jr.materials.shift_factor(arr, -5.0)
 
 
 def test_pytree_roundtrip_grad_and_vmap():
@@ -96,7 +96,7 @@ def test_pytree_roundtrip_grad_and_vmap():
     assert back == SLS or all(jnp.array_equal(a, b) for a, b in zip(jax.tree_util.tree_leaves(back), leaves))
 
     def loss(m):
-        return jr.loss_modulus(m, 4.0) / 1e6
+        return jr.materials.loss_modulus(m, 4.0) / 1e6
 
     g = jax.grad(loss)(SLS)
     for name, h in [("G0", 30.0), ("tau", 1e-7), ("f", 1e-7)]:
@@ -111,7 +111,7 @@ def test_pytree_roundtrip_grad_and_vmap():
     batch = jax.vmap(lambda G0: jr.complex_modulus(jr.StandardLinearSolid(G0, 0.25, 1.0), 2.0))(G0s)
     loop = [jr.complex_modulus(jr.StandardLinearSolid(G0, 0.25, 1.0), 2.0) for G0 in G0s]
     np.testing.assert_array_equal(batch, jnp.stack(loop))
-    pg = jax.grad(lambda m: jr.storage_modulus(m, 10.0))(PRONY)
+    pg = jax.grad(lambda m: jr.materials.storage_modulus(m, 10.0))(PRONY)
     assert pg.G.shape == (3,)
 
 

@@ -35,7 +35,7 @@ def test_notebook_executes(path, tmp_path, monkeypatch):
     client.execute()
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if o.output_type == "error"]
     assert not errors
-    # a cell that draws (jaxroll.plot, plt.subplots / plt.figure) must show at least one image
+    # a cell that draws (jaxroll.apps.plot, plt.subplots / plt.figure) must show at least one image
     draws = re.compile(r"\bplot\.plot_|plt\.(subplots|figure)\(")
     for k, cell in enumerate(c for c in nb.cells if c.cell_type == "code"):
         if draws.search(cell.source):

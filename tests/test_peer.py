@@ -13,11 +13,11 @@ differences are the discretisation error.
 
 Checks, on the same grid (128^2 cells of ``a = r_Hertz/12`` centred on the sphere apex):
 
-* the layer compliance ``T_1(q)/G`` (:func:`jaxroll.layer.static_compliance`; ours from
+* the layer compliance ``T_1(q)/G`` (:func:`jaxroll.engines.layer.static_compliance`; ours from
   [ZG] eq. 35 with ``kappa = 3 - 4 nu``) against their Green's function on every DFT bin, ``q = 0``
   included;
 * the static elastic contact of a rigid sphere (``V = 0`` of the full 3D model,
-  :func:`jaxroll.sphere3d.static_pressure`, relaxed modulus ``G0``) on layers from thick
+  :func:`jaxroll.engines.sphere3d.static_pressure`, relaxed modulus ``G0``) on layers from thick
   (``gamma = r/H = 0.46``) to intermediate (``gamma = 2.3``, where neither Hertz/Jaffar nor the
   thin-layer law applies): penetration, peak pressure, contact radius (cell-quantised set and
   second-moment radius).
@@ -44,8 +44,8 @@ with warnings.catch_warnings():
     st_mod = pytest.importorskip("SurfaceTopography")
 
 import jaxroll as jr  # noqa: E402
-from jaxroll import sphere3d as s3  # noqa: E402
-from jaxroll.layer import static_compliance  # noqa: E402
+from jaxroll.engines import sphere3d as s3  # noqa: E402
+from jaxroll.engines.layer import static_compliance  # noqa: E402
 
 G0, R, P = 3e6, 0.02, 10.0
 N, CPR = 128, 12

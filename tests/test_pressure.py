@@ -10,8 +10,8 @@ import pytest
 import scipy.integrate as si
 
 import jaxroll as jr
-from jaxroll.contact_size import _jaffar_gamma_max
-from jaxroll.pressure import _transform_np
+from jaxroll.engines.contact_size import _jaffar_gamma_max
+from jaxroll.engines.pressure import _transform_np
 
 MAT = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 G0 = 3e6
@@ -19,7 +19,7 @@ G0 = 3e6
 
 def test_jaffar_coefficients_incompressible():
     # oracle: docs/conventions.md sec. 5's 15-digit values; tolerance: scipy quad at epsrel 1e-13
-    b1, b2 = jr.jaffar_coefficients(0.5)
+    b1, b2 = jr.engines.contact_size.jaffar_coefficients(0.5)
     assert b1 == pytest.approx(-0.957769288898079, rel=1e-12)
     assert b2 == pytest.approx(1.749436123749906, rel=1e-12)
 
@@ -31,14 +31,14 @@ def test_jaffar_coefficients_compressible_vs_mpmath():
     with mp.workdps(30):
         L = lambda w: (2 * kappa * mp.sinh(2 * w) - 4 * w) / (2 * kappa * mp.cosh(2 * w) + 4 * w**2 + kappa**2 + 1)
         ref = [(-0.25) ** m * mp.quad(lambda w: (1 - L(w)) * w ** (2 * m), [0, 5, 20, 60]) for m in (1, 2)]
-    b1, b2 = jr.jaffar_coefficients(nu)
+    b1, b2 = jr.engines.contact_size.jaffar_coefficients(nu)
     assert b1 == pytest.approx(float(ref[0]), rel=1e-11)
     assert b2 == pytest.approx(float(ref[1]), rel=1e-11)
 
 
 def test_paper_radius_thick():
     # oracle: [ZG] 4.6 "for P <= 120 N the contact radius remains below 4.87 mm" (H = 5 mm)
-    r, ok = jr.contact_radius(MAT, jr.Layer(5e-3), 0.02, 120.0, model="thick")
+    r, ok = jr.engines.contact_size.contact_radius(MAT, jr.Layer(5e-3), 0.02, 120.0, model="thick")
     assert bool(ok)
     assert float(r) * 1e3 == pytest.approx(4.87, abs=0.005)  # stated to 3 digits
 
@@ -46,8 +46,8 @@ def test_paper_radius_thick():
 def test_paper_radii_thin():
     # oracle: [ZG] 4.6 "3.33 <= r_c <= 4.88 mm" for H = 10 um, R = 2000 m, P = 0.2..2 kN
     lay = jr.Layer(10e-6)
-    r_lo, _ = jr.contact_radius(MAT, lay, 2000.0, 200.0, model="thin")
-    r_hi, _ = jr.contact_radius(MAT, lay, 2000.0, 2000.0, model="thin")
+    r_lo, _ = jr.engines.contact_size.contact_radius(MAT, lay, 2000.0, 200.0, model="thin")
+    r_hi, _ = jr.engines.contact_size.contact_radius(MAT, lay, 2000.0, 2000.0, model="thin")
     assert float(r_lo) * 1e3 == pytest.approx(3.33, abs=0.005)
     assert float(r_hi) * 1e3 == pytest.approx(4.88, abs=0.005)
 
@@ -55,9 +55,9 @@ def test_paper_radii_thin():
 @pytest.mark.parametrize("H", [2e-3, 5e-3, 30e-3])
 def test_jaffar_radius_solves_load_law(H):
     # oracle: eqs. 32-33 evaluated at the returned radius give back P (root-find tolerance)
-    b1, b2 = jr.jaffar_coefficients(0.5)
+    b1, b2 = jr.engines.contact_size.jaffar_coefficients(0.5)
     for P in (10.0, 80.0):
-        r, ok = jr.contact_radius(MAT, jr.Layer(H), 0.02, P)
+        r, ok = jr.engines.contact_size.contact_radius(MAT, jr.Layer(H), 0.02, P)
         r = float(r)
         g = r / H
         if not bool(ok):
@@ -70,7 +70,7 @@ def test_jaffar_radius_solves_load_law(H):
 
 def test_halfspace_radius_is_hertz():
     # oracle: Hertz r = (3 P R / (4 E*))^(1/3), E* = 4 G0 (reference.hertz_sphere's convention)
-    r, _ = jr.contact_radius(MAT, jr.Layer(jnp.inf), 0.02, 50.0)
+    r, _ = jr.engines.contact_size.contact_radius(MAT, jr.Layer(jnp.inf), 0.02, 50.0)
     assert float(r) == pytest.approx((3 * 50.0 * 0.02 / (16 * G0)) ** (1 / 3), rel=1e-13)
 
 
@@ -78,40 +78,40 @@ def test_thin_compressible_radius_from_oedometric_stiffness():
     # oracle: p = k (r_c^2 - r^2)/(2R) with k = 1/T(q->0) of the compressible layer
     # (layer.transfer_compressible, independent of pressure.py) => P = k pi r_c^4/(4R)
     nu, H, R, P = 0.3, 1e-4, 0.5, 20.0
-    r, _ = jr.contact_radius(MAT, jr.Layer(H, nu=nu), R, P, model="thin-compressible")
-    t0 = float(jnp.real(jr.layer.transfer_compressible(jnp.asarray(1e-3), H, 1.0 * G0 + 0j, nu)))
+    r, _ = jr.engines.contact_size.contact_radius(MAT, jr.Layer(H, nu=nu), R, P, model="thin-compressible")
+    t0 = float(jnp.real(jr.engines.layer.transfer_compressible(jnp.asarray(1e-3), H, 1.0 * G0 + 0j, nu)))
     k = 1.0 / t0
     assert k * math.pi * float(r) ** 4 / (4 * R) == pytest.approx(P, rel=1e-6)  # q = 1e-3 vs q -> 0: (qH)^2
 
 
 def test_cylinder_half_widths():
     # oracles: reference.hertz_cylinder (a = sqrt(P' R/(pi G0))) and docs/validation.md sec. 1's thin-layer law
-    a, _ = jr.contact_radius(MAT, jr.Layer(jnp.inf), 0.02, 1000.0, geometry="cylinder")
-    assert float(a) == pytest.approx(float(jr.hertz_cylinder(1000.0, 0.02, G0)), rel=1e-13)
-    a, _ = jr.contact_radius(MAT, jr.Layer(1e-4), 0.02, 1000.0, geometry="cylinder", model="thin")
+    a, _ = jr.engines.contact_size.contact_radius(MAT, jr.Layer(jnp.inf), 0.02, 1000.0, geometry="cylinder")
+    assert float(a) == pytest.approx(float(jr.reference.hertz_cylinder(1000.0, 0.02, G0)), rel=1e-13)
+    a, _ = jr.engines.contact_size.contact_radius(MAT, jr.Layer(1e-4), 0.02, 1000.0, geometry="cylinder", model="thin")
     assert float(a) == pytest.approx((15 * 1000.0 * 0.02 * 1e-12 / (2 * G0)) ** 0.2, rel=1e-13)
 
 
 def test_modulus_options():
     # glassy modulus: the Hertz radius scales as G^(-1/3) (exact on a half-space)
     lay = jr.Layer(jnp.inf)
-    r_s, _ = jr.contact_radius(MAT, lay, 0.02, 50.0)
-    r_g, _ = jr.contact_radius(MAT, lay, 0.02, 50.0, modulus="glassy")
-    r_n, _ = jr.contact_radius(MAT, lay, 0.02, 50.0, modulus=6e6)
+    r_s, _ = jr.engines.contact_size.contact_radius(MAT, lay, 0.02, 50.0)
+    r_g, _ = jr.engines.contact_size.contact_radius(MAT, lay, 0.02, 50.0, modulus="glassy")
+    r_n, _ = jr.engines.contact_size.contact_radius(MAT, lay, 0.02, 50.0, modulus=6e6)
     assert float(r_g) == pytest.approx(float(r_s) * 2 ** (-1 / 3), rel=1e-13)
     assert float(r_n) == pytest.approx(float(r_g), rel=1e-13)
     # dynamic: G'(V/r_static) lies between G0 and G0 (1+f)
-    r_d, _ = jr.contact_radius(MAT, lay, 0.02, 50.0, modulus="dynamic", speed=0.01)
+    r_d, _ = jr.engines.contact_size.contact_radius(MAT, lay, 0.02, 50.0, modulus="dynamic", speed=0.01)
     assert float(r_g) < float(r_d) < float(r_s)
     with pytest.raises(ValueError, match="unknown modulus"):
-        jr.contact_radius(MAT, lay, 0.02, 50.0, modulus="bogus")
+        jr.engines.contact_size.contact_radius(MAT, lay, 0.02, 50.0, modulus="bogus")
 
 
 def test_jaffar_radius_gradient_implicit():
     # oracle: central finite differences (step 1e-5 relative: error ~1e-10); the root find is
     # differentiated implicitly (custom_root), so this also checks the implicit adjoint
     def r_of(P, H):
-        return jr.contact_radius(MAT, jr.Layer(H), 0.02, P)[0]
+        return jr.engines.contact_size.contact_radius(MAT, jr.Layer(H), 0.02, P)[0]
 
     P, H = 80.0, 5e-3
     gP, gH = jax.grad(r_of, argnums=(0, 1))(P, H)
@@ -140,10 +140,10 @@ def _disk_transform(profile, r_c, q):
 def test_sphere_transforms_vs_2d_integration(model):
     # oracle: direct 2D numerical integration of the pressure profile; tolerance: 200x200 GL
     r_c, P = 4e-3, 50.0
-    prof = lambda r: np.asarray(jr.pressure_profile(r, r_c, P, model=model))
+    prof = lambda r: np.asarray(jr.engines.pressure.pressure_profile(r, r_c, P, model=model))
     for x in (0.0, 0.7, 3.0, 9.5, 25.0):
         ref = _disk_transform(prof, r_c, x / r_c) / P
-        val = float(jr.pressure_transform(x, model=model))
+        val = float(jr.engines.pressure.pressure_transform(x, model=model))
         assert val == pytest.approx(ref, rel=1e-9, abs=1e-12)
 
 
@@ -153,9 +153,9 @@ def test_cylinder_transforms_vs_integration(model):
     a, P = 1e-3, 100.0
     for xq in (0.3, 2.0, 11.0, 40.0):
         q = xq / a
-        ref = si.quad(lambda x: float(jr.pressure_profile(x, a, P, model=model, geometry="cylinder")),
+        ref = si.quad(lambda x: float(jr.engines.pressure.pressure_profile(x, a, P, model=model, geometry="cylinder")),
                       -a, a, weight="cos", wvar=q, epsabs=0, epsrel=1e-12)[0] / P
-        val = float(jr.pressure_transform(xq, model=model, geometry="cylinder"))
+        val = float(jr.engines.pressure.pressure_transform(xq, model=model, geometry="cylinder"))
         assert val == pytest.approx(ref, rel=1e-8, abs=1e-12)
 
 
@@ -165,11 +165,11 @@ def test_transform_small_x_and_gradient(model, geometry):
     # S(0) = 1 (normalisation) and continuity across the Taylor-series switch; jax vs the
     # scipy-Bessel twin used for the quadrature weights (1e-13: Bessel accuracy)
     x = jnp.array([0.0, 0.049, 0.051, 0.49, 0.51, 1.3, 17.0, 80.0])
-    S = jr.pressure_transform(x, model=model, geometry=geometry)
+    S = jr.engines.pressure.pressure_transform(x, model=model, geometry=geometry)
     assert float(S[0]) == 1.0
     ref = _transform_np(np.asarray(x), model, geometry)
     np.testing.assert_allclose(np.asarray(S), ref, rtol=1e-11, atol=1e-14)
-    g = jax.vmap(jax.grad(lambda t: jr.pressure_transform(t, model=model, geometry=geometry)))(x)
+    g = jax.vmap(jax.grad(lambda t: jr.engines.pressure.pressure_transform(t, model=model, geometry=geometry)))(x)
     assert np.all(np.isfinite(np.asarray(g)))
     assert float(g[0]) == 0.0
     # derivative oracle: mpmath differentiation of the closed form at 40 digits
@@ -192,8 +192,8 @@ def _S_mp(x, model, geometry):
 
 def test_bad_model_names():
     with pytest.raises(ValueError, match="unknown pressure model"):
-        jr.pressure_transform(1.0, model="medium")
+        jr.engines.pressure.pressure_transform(1.0, model="medium")
     with pytest.raises(ValueError, match="compressible layer"):
-        jr.contact_radius(MAT, jr.Layer(1e-3), 0.02, 10.0, model="thin-compressible")
+        jr.engines.contact_size.contact_radius(MAT, jr.Layer(1e-3), 0.02, 10.0, model="thin-compressible")
     with pytest.raises(ValueError, match="finite layer thickness"):
-        jr.contact_radius(MAT, jr.Layer(jnp.inf), 0.02, 10.0, model="thin")
+        jr.engines.contact_size.contact_radius(MAT, jr.Layer(jnp.inf), 0.02, 10.0, model="thin")

@@ -14,7 +14,7 @@ import scipy.special as sp
 
 import jaxroll
 from jaxroll import reference as ref
-from jaxroll.material import GeneralizedMaxwell, StandardLinearSolid
+from jaxroll.materials.material import GeneralizedMaxwell, StandardLinearSolid
 
 G0, TAU, F = 3e6, 0.25, 1.0
 MAT = StandardLinearSolid(G0, TAU, F)
@@ -213,7 +213,7 @@ def test_exact_cylinder_vmap_equals_loop_and_errors():
     assert float(rr[1]) == pytest.approx(float(fun(0.01).rolling_resistance), rel=1e-14)
     with pytest.raises(ValueError):
         ref.exact_cylinder_halfspace(GeneralizedMaxwell(1e6, [1e6], [0.1]), 0.02, 5000.0, 0.01)
-    assert jaxroll.exact_cylinder_halfspace is ref.exact_cylinder_halfspace
+    assert jaxroll.reference.exact_cylinder_halfspace is ref.exact_cylinder_halfspace
 
 
 # --------------------------------------------------------------------------------------

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-from jaxroll import plot
-from jaxroll import reproduce as rp
+from jaxroll.apps import plot
+from jaxroll.apps import reproduce as rp
 
 matplotlib.use("Agg")
 
@@ -136,7 +136,7 @@ def test_plot_master_curves_with_wlf():
     assert len(ax1.get_lines()) == 4 and len(ax2.get_lines()) == 2  # G', G'' per temperature; tan delta
     # at T_ref the curve is the reference material's
     w = ax1.get_lines()[2].get_xdata()
-    np.testing.assert_allclose(ax1.get_lines()[2].get_ydata(), np.asarray(jr.storage_modulus(mat, w)), rtol=1e-12)
+    np.testing.assert_allclose(ax1.get_lines()[2].get_ydata(), np.asarray(jr.materials.storage_modulus(mat, w)), rtol=1e-12)
     plot.close(fig)
     with pytest.raises(ValueError, match="both shift"):
         plot.plot_master_curves({"m": mat}, shift=jr.WLF(8.86, 101.6, 293.15))

@@ -15,7 +15,7 @@ import jaxroll as jr
 
 G0, TAU, R, P = 3e6, 0.25, 0.02, 100.0
 HALF_SPACE = jr.Layer(H=float("inf"))
-A0 = float(jr.hertz_sphere(P, R, G0).contact_radius)  # relaxed Hertz radius (E* = 4 G0): 5 mm
+A0 = float(jr.reference.hertz_sphere(P, R, G0).contact_radius)  # relaxed Hertz radius (E* = 4 G0): 5 mm
 
 
 def _rr(cells_per_radius, zeta, f):

@@ -1,11 +1,11 @@
-"""Tests of the sphere-from-cylinder-slices algorithms PD, PP, SP (jaxroll.slices, [ZG] sec. 3).
+"""Tests of the sphere-from-cylinder-slices algorithms PD, PP, SP (jaxroll.engines.slices, [ZG] sec. 3).
 
 Oracles: the algorithms' defining equations evaluated independently (eq. 2, 6-7, 9, 10 and the
 load sum of eq. 11; eq. 10 integrated by scipy quadrature); the load-controlled 2D cylinder of
-jaxroll.cylinder (second method for the penetration- and load-controlled slice solves, GMRES, LU
+jaxroll.engines.cylinder (second method for the penetration- and load-controlled slice solves, GMRES, LU
 and the default Levinson/interval solver); LU for the Levinson tables; convergence in the slice
 count and the 2D resolution ([ZG] sec. 3.4: within 0.5 %); central finite differences for the
-gradients; the full 3D model (jaxroll.sphere3d) for the paper's accuracy findings.
+gradients; the full 3D model (jaxroll.engines.sphere3d) for the paper's accuracy findings.
 Default-suite cases share one compiled function per algorithm at reduced resolution.
 """
 
@@ -18,8 +18,8 @@ import pytest
 from scipy import integrate
 
 import jaxroll as jr
-from jaxroll import cylinder as cy
-from jaxroll import slices as sl
+from jaxroll.engines import cylinder as cy
+from jaxroll.engines import slices as sl
 
 G0, TAU, F, R = 3e6, 0.25, 1.0, 0.02
 H, P, V = 5e-3, 100.0, 0.01  # V tau / a ~ 0.5: near the R_r peak
@@ -29,7 +29,7 @@ def _grid(H_=H, cpr=20, n_cells=2**10):
     """Reduced resolution: ``cpr`` cells per estimated half-width of the middle slice at P, a
     window of 3 half-widths each side, ``n_cells`` period cells (period ~0.19 m >= 20 a, 20 V tau)."""
     mat, layer = jr.StandardLinearSolid(G0, TAU, F), jr.Layer(H_)
-    a = float(jr.estimate_contact_size(mat, layer, R, sl.middle_slice_load(mat, layer, R, P), "cylinder"))
+    a = float(jr.engines.contact_size.estimate_contact_size(mat, layer, R, sl.middle_slice_load(mat, layer, R, P), "cylinder"))
     dx = a / cpr
     return jr.FixedGrid(dx, 2 * int(np.ceil(3.0 * cpr)), period=n_cells * dx)
 
@@ -133,7 +133,7 @@ def test_penetration_solve_matches_load_controlled_cylinder():
     mat = jr.StandardLinearSolid(G0, TAU, F)
     layer = jr.Layer(H)
     Pl = 8e3
-    a = float(jr.estimate_contact_size(mat, layer, R, Pl, "cylinder"))
+    a = float(jr.engines.contact_size.estimate_contact_size(mat, layer, R, Pl, "cylinder"))
     grid = jr.FixedGrid(a / 20, 120, period=2**10 * a / 20)
     kernel = cy.kernel_builder(mat, layer, grid, images=sl.IMAGES)(V)
     c = jax.jit(lambda: cy.solve(kernel, grid, R, Pl, a))()
@@ -186,7 +186,7 @@ def test_zero_penetration_carries_nothing():
     mat = jr.StandardLinearSolid(G0, TAU, F)
     from jaxroll import contact as ct
 
-    K = ct.periodic_kernel(lambda q: jr.surface_compliance(jr.Layer(H), mat, q, 0.0, V), (0.1,), (512,))
+    K = ct.periodic_kernel(lambda q: jr.engines.layer.surface_compliance(jr.Layer(H), mat, q, 0.0, V), (0.1,), (512,))
     C = ct.windowed_compliance(K, (512,), (64,))
     x = (jnp.arange(64.0) - 31.5) * (0.1 / 512)
 
@@ -276,7 +276,7 @@ def test_convergence_slices_reduced():
 
 
 # ----------------------------------------------------------------------------------------------
-# Against the full 3D model (jaxroll.sphere3d)
+# Against the full 3D model (jaxroll.engines.sphere3d)
 # ----------------------------------------------------------------------------------------------
 
 # Reduced copy: 3 speeds x 2 loads (V tau/a from ~0.1 to ~10, across the R_r peak), 3D model at
@@ -355,7 +355,7 @@ def reference_errors(H_):
 
     mat = jr.StandardLinearSolid(G0, TAU, F)
     layer = jr.Layer(H_)
-    r_max = float(jr.estimate_contact_size(mat, layer, R, float(LOADS_REF.max())))
+    r_max = float(jr.engines.contact_size.estimate_contact_size(mat, layer, R, float(LOADS_REF.max())))
     window = max(41, 2 * math.ceil(1.15 * r_max / 2.5e-4) + 1)
     converged = (0, jr.RESULTS.period_too_short)  # the paper's 0.2 m period is short at high speed
     ref = jr.rolling_resistance_grid(mat, layer, radius=R, loads=LOADS_REF, speeds=SPEEDS_REF, method=jr.Full(
@@ -363,7 +363,7 @@ def reference_errors(H_):
     assert np.all(np.isin(np.asarray(ref.result), converged))
     err = {}
     for alg in sl.ALGORITHMS:
-        a = float(jr.estimate_contact_size(mat, layer, R, sl.middle_slice_load(mat, layer, R, LOADS_REF.max()),
+        a = float(jr.engines.contact_size.estimate_contact_size(mat, layer, R, sl.middle_slice_load(mat, layer, R, LOADS_REF.max()),
                                            "cylinder"))
         window = 2 * math.ceil(3.0 * a / (0.2 / 2**10))
         out = jr.rolling_resistance_grid(mat, layer, radius=R, loads=LOADS_REF, speeds=SPEEDS_REF, method=jr.Slices(

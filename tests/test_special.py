@@ -1,4 +1,4 @@
-"""jaxroll.special against scipy.special and mpmath (independent oracles), derivatives against
+"""jaxroll.engines.special against scipy.special and mpmath (independent oracles), derivatives against
 the recurrence identities and central finite differences."""
 
 import jax
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.special as sp
 
-from jaxroll import special
+from jaxroll.engines import special
 
 JN = [special.j0, special.j1, special.j2, special.j3]
 

@@ -1,10 +1,10 @@
-"""Tests of the full 3D rolling sphere (jaxroll.sphere3d).
+"""Tests of the full 3D rolling sphere (jaxroll.engines.sphere3d).
 
 Oracles: Hertz (jaxroll.reference.hertz_sphere) with the relaxed (V -> 0) and glassy (V -> inf)
 moduli, corrected for the periodic images by the exact square-lattice sum of the Boussinesq
 1/r field (Madelung constant 4 zeta(1/2) beta(1/2), mpmath); Jaffar's thick-layer load law
-(jaxroll.pressure.contact_radius, [ZG] eq. 32); the dissipation form of R_r (second method);
-convergence in spacing / period / terms; the direct series (jaxroll.direct, small f);
+(jaxroll.engines.pressure.contact_radius, [ZG] eq. 32); the dissipation form of R_r (second method);
+convergence in spacing / period / terms; the direct series (jaxroll.engines.direct, small f);
 central finite differences. Default-suite cases run at reduced resolution (12 cells per contact
 radius, 128^2 period cells, L = 10.7 r) and share a few compiled functions; full resolution is marked slow.
 """
@@ -19,9 +19,9 @@ import pytest
 
 import jaxroll as jr
 from jaxroll import reference as ref
-from jaxroll import sphere3d as s3
-from jaxroll.direct import direct_rolling_resistance
-from jaxroll.contact_size import contact_radius as model_radius
+from jaxroll.engines import sphere3d as s3
+from jaxroll.engines.direct import direct_rolling_resistance
+from jaxroll.engines.contact_size import contact_radius as model_radius
 
 G0, TAU, F, R, P = 3e6, 0.25, 1.0, 0.02, 10.0
 A_H = float(ref.hertz_sphere(P, R, G0).contact_radius)  # relaxed Hertz radius, 2.32 mm
@@ -41,7 +41,7 @@ def _grid(spacing, n_cells=N, window=W, n_terms=None):
 def _solve_on(theta, V, grid):
     G, tau, f, H, radius, load = theta
     layer, mat = jr.Layer(H), jr.StandardLinearSolid(G, tau, f)
-    r_est = jr.estimate_contact_size(mat, layer, radius, load)
+    r_est = jr.engines.contact_size.estimate_contact_size(mat, layer, radius, load)
     s = s3.solve(s3.kernel_builder(mat, layer, grid)(V), grid, radius, load, r_est)
     return {
         "result": s3.result(s, grid, layer, V, mat),
@@ -264,7 +264,7 @@ def test_convergence_table_full():
 
 @jax.jit
 def _direct_pair_on(f, H, V, grid):
-    """Direct series with the Hertz/Jaffar pressure (jaxroll.direct, the grid's period, ``4 N``
+    """Direct series with the Hertz/Jaffar pressure (jaxroll.engines.direct, the grid's period, ``4 N``
     terms) and with the exact static grid pressure (same grid as :func:`_solve`)."""
     mat = jr.StandardLinearSolid(G0, TAU, f)
     direct = direct_rolling_resistance(mat, jr.Layer(H), radius=R, load=P, speed=V, period=grid.period[0],

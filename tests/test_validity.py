@@ -72,7 +72,7 @@ def test_direct_valid_results_are_positive_and_match_the_closed_forms(geometry, 
     # dips to 1e-8 while the error is 2.6e-6, 11 of 1554 full-count draws)
     floor = 1e-6 if geometry == "cylinder" else 1e-5
     half = np.isinf(d["H"]) & ok
-    oracle = jr.persson_cylinder_halfspace if geometry == "cylinder" else jr.persson_sphere_halfspace
+    oracle = jr.reference.persson_cylinder_halfspace if geometry == "cylinder" else jr.reference.persson_sphere_halfspace
     ref = np.array([float(oracle(jr.StandardLinearSolid(d["G0"][i], d["tau"][i], d["f"][i]), d["R"][i], d["P"][i],
                                  d["V"][i])) for i in np.flatnonzero(half)])
     err = np.abs(np.asarray(res.value)[half] / ref - 1)
@@ -125,7 +125,7 @@ def test_grid_methods_valid_results_are_positive(geometry, method, n):
         codes.append(int(res.result))
         if geometry == "cylinder" and np.isinf(d["H"][k]) and bool(res.valid):
             mat = jr.StandardLinearSolid(d["G0"][k], d["tau"][k], d["f"][k])
-            exact = float(jr.exact_cylinder_halfspace(mat, d["R"][k], d["P"][k], d["V"][k]).rolling_resistance)
+            exact = float(jr.reference.exact_cylinder_halfspace(mat, d["R"][k], d["P"][k], d["V"][k]).rolling_resistance)
             errors.append(float(res.value) / exact - 1)
     _summary(f"{method} {geometry}", n, codes, raised, errors)
     # tolerance: the default grid's discretisation error (docs: 0.8 %; full counts, 87 compared:

@@ -14,7 +14,7 @@ preconditioner and the relative tolerance, which varies from step to step.
   operator to the unit vectors; exact to rounding and faster for 1D windows of a few hundred
   cells.
 
-The slice solvers add a third, :class:`jaxroll.slices.Interval` (Levinson tables on a contact
+The slice solvers add a third, :class:`jaxroll.engines.slices.Interval` (Levinson tables on a contact
 interval), which replaces the whole contact solve rather than one linear system.
 """
 

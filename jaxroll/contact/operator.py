@@ -6,7 +6,7 @@ The period ``L_k`` of axis ``k`` is split into ``N_k`` cells of width ``dx_k = L
 pressure is **piecewise constant** on the cells; the surface displacement ``u`` (positive into
 the layer) is **collocated at the cell centres**. A Fourier mode is ``e^{+i q.x}`` with
 ``q_k = 2 pi m_k / L_k`` (``m_k`` any integer); ``T(q)`` is the layer's surface compliance
-(:func:`jaxroll.layer.surface_compliance`, displacement per unit pressure of that mode).
+(:func:`jaxroll.engines.layer.surface_compliance`, displacement per unit pressure of that mode).
 
 The exact Fourier coefficient of the piecewise-constant pressure is
 ``p_hat_m = (1/N) S(q_m) DFT(p)_{m mod N}`` with the load-patch factor
@@ -138,7 +138,7 @@ def _line_alias_sum(compliance_fn, z, dx, M, dissipation):
     ``z = r/N`` are the normalised base wavenumbers (``q = 2 pi z/dx``). The base column
     (``l = 0``) and the images are evaluated in two calls: every image has ``|q| >= pi/dx``, so a
     compliance function can take a cheaper branch for them at run time (e.g. the half-space form
-    of a layer much thicker than a cell, see :func:`jaxroll.cylinder.compliance_function`); the
+    of a layer much thicker than a cell, see :func:`jaxroll.engines.cylinder.compliance_function`); the
     values are the same either way. Image columns: ``l = -M..M-1`` without 0, then the first
     omitted image on each side (``l = M`` and ``-M-1``) for the tail. All weights are trace-time
     constants: with ``q = 2 pi w/dx``, the tail weight ``dx |q| / (2 pi^2)`` is ``|w|/pi``.
@@ -347,7 +347,7 @@ class WindowKernel(eqx.Module):
 
 def periodic_window_kernel(kernel, kernel2, n_cells, period, window) -> WindowKernel:
     """:class:`WindowKernel` of a periodic grid from the multipliers ``(K, K2)`` of
-    :func:`periodic_kernel` (``dissipation=True``) or :func:`jaxroll.sphere3d.sphere_kernel`.
+    :func:`periodic_kernel` (``dissipation=True``) or :func:`jaxroll.engines.sphere3d.sphere_kernel`.
 
     With ``A = prod L_k`` and ``dA = A/prod N_k``, ``R_r = (dA^2/A) sum_r |DFT(p)_r|^2 K2_r``
     over the full spectrum equals ``dA^2 sum_jk p_j p_k D_{j-k}`` with

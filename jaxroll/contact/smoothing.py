@@ -12,7 +12,7 @@ weights (the active-set system is the special case of 0/1 weights). Derivatives:
 Newton correction whose right-hand side carries the parameter dependence, through
 :func:`jax.lax.custom_linear_solve` (implicit function theorem). The price is a bias: the soft
 edge lets cells with a small gap carry load; the 3D rolling resistance falls by ~1 % on
-average at the smoothing used for fits (see :func:`jaxroll.sphere3d.solve_sphere`,
+average at the smoothing used for fits (see :func:`jaxroll.engines.sphere3d.solve_sphere`,
 ``edge_smoothing``), and the bias vanishes with ``eps``.
 """
 

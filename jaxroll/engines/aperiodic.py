@@ -57,7 +57,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.special as sps
 
-from . import contact as _contact
+from .. import contact as _contact
 
 __all__ = ["FourierRule", "fourier_rule", "line_window_kernel", "surface_factor", "surface_window_kernel"]
 
@@ -215,7 +215,7 @@ def line_offsets(compliance_fn, dx, window: int, halfspace):
 
     Args:
         compliance_fn: ``T(q)`` [m/Pa] of a real wavenumber array [rad/m] (elementwise, complex),
-            e.g. :func:`jaxroll.cylinder.compliance_function`.
+            e.g. :func:`jaxroll.engines.cylinder.compliance_function`.
         dx: cell width [m] (traced allowed).
         window: static ``W``.
         halfspace: (traced) bool, True for an infinite thickness: the kernel is referred to the

@@ -49,8 +49,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_input, check_x64, to_complex as _c, where_safe
-from .material import _leaf, _require, complex_modulus, relaxed_modulus
+from .._numerics import as_float, check_input, check_x64, to_complex as _c, where_safe
+from ..materials.material import _leaf, _require, complex_modulus, relaxed_modulus
 
 __all__ = [
     "Layer",
@@ -333,7 +333,7 @@ def surface_compliance(layer: Layer, material, qx, qy, V) -> jax.Array:
 
     Args:
         layer: :class:`Layer`.
-        material: a material of :mod:`jaxroll.material`.
+        material: a material of :mod:`jaxroll.materials.material`.
         qx, qy: wavenumbers [rad/m] (broadcast together).
         V: rolling speed [m/s] (broadcasts); ``|V|`` must stay below the shear-wave speed.
 

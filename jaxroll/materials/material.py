@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_input, to_complex
+from .._numerics import as_float, check_input, to_complex
 
 __all__ = [
     "AbstractMaterial",

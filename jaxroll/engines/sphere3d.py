@@ -5,7 +5,7 @@ The steady rolling contact of a rigid sphere (profile ``h = (x^2 + y^2)/(2R)``, 
 by :mod:`jaxroll.contact` (primal-dual active set, GMRES on the windowed FFT operator, implicit
 differentiation). The pressure is piecewise constant on square cells of side ``a`` (the
 paper's "load patches"); the displacement is collocated at the cell centres. The compliance is
-the 3D ``T_mn = T(q_x, q_y)`` of :func:`jaxroll.layer.surface_compliance` (inertia and the
+the 3D ``T_mn = T(q_x, q_y)`` of :func:`jaxroll.engines.layer.surface_compliance` (inertia and the
 mode-modulus sign fix included) times the load-patch transform
 ``S = sinc(q_x a/2) sinc(q_y a/2)``, folded (aliased) onto the period grid (see the module
 docstring of :mod:`jaxroll.contact`, eq. (1)) and applied by FFT: the dense compliance matrix of
@@ -34,7 +34,7 @@ is speed independent) and only ``G*`` per speed, which is what makes the referen
 (:func:`jaxroll.rolling_resistance_grid`) cheap.
 
 Deviation from paper: none in the model; the mode modulus is ``conj(G*(q_x V))`` (inside
-:func:`jaxroll.layer.surface_compliance`) and eq. 19's cases are swapped .
+:func:`jaxroll.engines.layer.surface_compliance`) and eq. 19's cases are swapped .
 
 The *direct method with the exact stationary pressure* (``jr.DirectElastic()``):
 :func:`static_pressure` solves the elastic (relaxed, ``V = 0``) contact on the same grid and
@@ -58,13 +58,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import aperiodic as _aperiodic
-from . import contact as _contact
-from ._numerics import as_float, where_safe
+from .. import contact as _contact
+from .._numerics import as_float, where_safe
 from .contact_size import estimate_contact_size
-from .grids import FixedGrid
+from ..grids import FixedGrid
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
-from .material import complex_modulus, glassy_modulus
-from .result import REGIMES, RESULTS, RollingResult, first_failure, full_model_result, merge_results
+from ..materials.material import complex_modulus, glassy_modulus
+from ..result import REGIMES, RESULTS, RollingResult, first_failure, full_model_result, merge_results
 
 __all__ = [
     "SphereSolution",
@@ -149,13 +149,13 @@ def sphere_kernel(material, layer, speed, n_cells, period, terms):
     ``K_r = sum_{m = r mod N, |m_k| <= n_k} T(q_m) S(q_m)`` [m/Pa] (cell-to-centre
     compliance, ``rfftn`` layout, x = axis 0) and ``K2_r = sum q_x Im T(q_m) S(q_m)^2``
     [m/Pa per m] (dissipation), with ``T`` the 3D ``T_mn`` of
-    :func:`jaxroll.layer.surface_compliance` and ``S = sinc(q_x dx/2) sinc(q_y dy/2)`` the
+    :func:`jaxroll.engines.layer.surface_compliance` and ``S = sinc(q_x dx/2) sinc(q_y dy/2)`` the
     load-patch transform. Same convention as :func:`jaxroll.contact.periodic_kernel`, but with
     a truncation ``|m_k| <= n_k`` (the paper's number of terms on its square period) and, for
     quasi-static layers, the factorisation ``T = T_1(q)/G_m``.
 
     Args:
-        material, layer: material and :class:`jaxroll.layer.Layer`.
+        material, layer: material and :class:`jaxroll.engines.layer.Layer`.
         speed: rolling speed ``V`` [m/s].
         n_cells: static ``(Nx, Ny)`` (``Ny`` even).
         period: ``(Lx, Ly)`` [m].
@@ -200,7 +200,7 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
 
 def _infinite_layer_factor(layer, grid):
     """Speed-independent ``y`` integrals ``(A, B)`` of ``T_1 S_y`` and ``T_1 S_y^2`` on an infinite
-    layer (:func:`jaxroll.aperiodic.surface_factor`)."""
+    layer (:func:`jaxroll.engines.aperiodic.surface_factor`)."""
     t1 = _radial(lambda q: static_compliance(layer, q))
     dx, W = grid.spacing, grid.window
     return _aperiodic.surface_factor(t1, dx, W, False), _aperiodic.surface_factor(t1, dx, W, True)
@@ -208,7 +208,7 @@ def _infinite_layer_factor(layer, grid):
 
 def _infinite_kernel_builder(material, layer, grid: FixedGrid):
     """``V -> WindowKernel`` of an infinite layer (``grid.period = None``): the aperiodic influence
-    coefficients of :mod:`jaxroll.aperiodic`, with the layer's ``y`` integrals done once for a
+    coefficients of :mod:`jaxroll.engines.aperiodic`, with the layer's ``y`` integrals done once for a
     quasi-static layer and ``G*`` evaluated per speed on the ``q_x`` nodes only."""
     dx, W = grid.spacing, grid.window
     qx = (2.0 * jnp.pi / dx) * _aperiodic.fourier_rule(W, _aperiodic.W_CUT_SURFACE).w

@@ -1,7 +1,7 @@
 r"""Direct Fourier-series rolling resistance ([ZG] section 4): periodic series and aperiodic limit.
 
-With a stationary pressure ``p`` (:mod:`jaxroll.pressure`) whose transform is ``P S(q r_c)``,
-and the layer compliance ``T(q_x, q_y)`` (:func:`jaxroll.layer.surface_compliance`, displacement
+With a stationary pressure ``p`` (:mod:`jaxroll.engines.pressure`) whose transform is ``P S(q r_c)``,
+and the layer compliance ``T(q_x, q_y)`` (:func:`jaxroll.engines.layer.surface_compliance`, displacement
 into the layer per unit pressure of the mode ``e^{i(q_x x + q_y y)}``, with the mode-modulus
 sign fix), the rolling resistance ``R_r = -int p du/dx dA`` is, by Parseval,
 
@@ -74,9 +74,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_input, roller_inputs, where_safe
+from .._numerics import as_float, check_input, roller_inputs, where_safe
 from .layer import static_compliance, surface_compliance
-from .material import complex_modulus
+from ..materials.material import complex_modulus
 from .pressure import (
     PRESSURE_MODELS,
     THICK_MAX_GAMMA,
@@ -87,7 +87,7 @@ from .pressure import (
     contact_radius,
     pressure_transform,
 )
-from .result import RESULTS, RollingResult, first_failure
+from ..result import RESULTS, RollingResult, first_failure
 
 __all__ = ["direct_rolling_resistance", "select_pressure", "QuadratureSettings"]
 
@@ -270,7 +270,7 @@ def select_pressure(material, layer, radius, load, *, pressure="auto", geometry=
     ``"auto"``: Jaffar's thick model for ``gamma <= 0.9`` ([ZG] 4.3; always on a half-space),
     the thin model (``"thin"`` for ``nu = 0.5``, ``"thin-compressible"`` for ``nu < 0.5``)
     beyond the band below, both valid. ``valid`` is True for thick with ``gamma <= 0.9`` and
-    thin with ``gamma >= 10`` (:data:`jaxroll.pressure.THIN_MIN_GAMMA`); in between ([ZG] 4.5)
+    thin with ``gamma >= 10`` (:data:`jaxroll.engines.pressure.THIN_MIN_GAMMA`); in between ([ZG] 4.5)
     no model applies and the result is flagged ``outside_pressure_model``.
 
     The blend: Jaffar's law has no solution beyond ``gamma_max`` (1.2 for spheres at
@@ -344,10 +344,10 @@ def _im_t_fast(layer, material, q, qx, qy, V):
 
     Quasi-static layers (``rho = 0``; checked at run time if ``rho`` is traced) use the exact
     factorisation ``T(q, q_x) = T_1(q) / G_m(q_x V)``, ``T_1`` the compliance at unit modulus
-    (:func:`jaxroll.layer.static_compliance`): the layer closed
+    (:func:`jaxroll.engines.layer.static_compliance`): the layer closed
     form is evaluated on the shape of ``q`` only and ``G*`` on the shape of ``q_x`` only, so a
     tensor grid costs a product of two small evaluations. Otherwise
-    :func:`jaxroll.layer.surface_compliance` on the broadcast grid.
+    :func:`jaxroll.engines.layer.surface_compliance` on the broadcast grid.
     """
 
     def factorised(_):
@@ -517,8 +517,8 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
     """Rolling resistance by the direct Fourier-series method of [ZG] section 4.
 
     Args:
-        material: a material of :mod:`jaxroll.material` (parameters are differentiable).
-        layer: :class:`jaxroll.layer.Layer` (``H`` [m], ``rho``, static ``nu``).
+        material: a material of :mod:`jaxroll.materials.material` (parameters are differentiable).
+        layer: :class:`jaxroll.engines.layer.Layer` (``H`` [m], ``rho``, static ``nu``).
         radius: roller radius ``R`` [m] (scalar).
         load: ``P`` [N] for a sphere, ``P'`` [N/m] for a cylinder (scalar).
         speed: rolling speed ``V`` [m/s], ``>= 0`` (scalar).
@@ -532,7 +532,7 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
             (``m = 1..N``, ``n = -N..N``; [ZG] eq. 37 with N terms). Static int.
         rtol: target relative accuracy of the aperiodic quadrature (static; selects
             :func:`settings_for_rtol` unless ``quadrature`` is given).
-        modulus: modulus used for the contact radius (see :func:`jaxroll.pressure.contact_radius`).
+        modulus: modulus used for the contact radius (see :func:`jaxroll.engines.pressure.contact_radius`).
         quadrature: explicit :class:`QuadratureSettings` (static), overriding ``rtol``.
 
     Returns:

@@ -39,7 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from ._numerics import as_float, where_safe
+from .._numerics import as_float, where_safe
 
 __all__ = ["j0", "j1", "j2", "j3", "jn", "i0e", "i1e", "i2e", "k0e", "k1e"]
 

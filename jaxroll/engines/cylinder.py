@@ -38,12 +38,12 @@ import jax
 import jax.numpy as jnp
 
 from . import aperiodic as _aperiodic
-from . import contact as _contact
-from ._numerics import as_float, to_complex
-from .grids import FixedGrid
+from .. import contact as _contact
+from .._numerics import as_float, to_complex
+from ..grids import FixedGrid
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
-from .material import complex_modulus
-from .result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
+from ..materials.material import complex_modulus
+from ..result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
 
 __all__ = ["CylinderSolution", "compliance_function", "kernel_builder", "solve", "result"]
 
@@ -85,7 +85,7 @@ def compliance_function(material, layer: Layer, V):
 
     Same values as ``surface_compliance(layer, material, q, 0, V)``. Without inertia
     (``rho = 0``) the compliance factorises exactly, ``T = T_1(|q|)/G_m(q V)``
-    (:func:`jaxroll.layer.static_compliance`, with its forward-mode derivative rule); the
+    (:func:`jaxroll.engines.layer.static_compliance`, with its forward-mode derivative rule); the
     kernel's image wavenumbers (all ``|q| >= pi/dx``) take the half-space ``T_1`` when every
     ``|q| H >= 40`` (the layer correction is ~e^{-2 q H}). With inertia (``rho > 0`` or a traced
     ``rho``) this is ``surface_compliance`` itself.
@@ -111,7 +111,7 @@ def kernel_builder(material, layer: Layer, grid: FixedGrid, images: int = IMAGES
     """``V -> WindowKernel``: the plane-strain compliance and dissipation operators of ``grid``'s
     window at speed ``V`` [m/s] (periodic alias sum with ``images`` images per side and the
     analytic tail, :func:`jaxroll.contact.periodic_kernel`; on an infinite layer,
-    ``grid.period = None``, the aperiodic influence coefficients of :mod:`jaxroll.aperiodic`)."""
+    ``grid.period = None``, the aperiodic influence coefficients of :mod:`jaxroll.engines.aperiodic`)."""
     if grid.period is None:
         halfspace = jnp.isinf(as_float(layer.H))
 

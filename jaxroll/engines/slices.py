@@ -4,7 +4,7 @@ The sphere (radius ``R``) is cut, across the rolling direction, into an odd numb
 slices of equal thickness ``dy = 2 r_c / n`` covering the contact width ``[-r_c, r_c]``; slice
 ``k`` is centred at ``y_k = k dy`` (``k = -(n-1)/2 .. (n-1)/2``, one slice centred at ``y = 0``).
 Each slice is a 2D rolling cylinder in plane strain (the full model of
-:mod:`jaxroll.cylinder`) of radius ``R_c(y) = sqrt(R^2 - y^2)`` -- the radius of the sphere's
+:mod:`jaxroll.engines.cylinder`) of radius ``R_c(y) = sqrt(R^2 - y^2)`` -- the radius of the sphere's
 cross-section in the plane ``y = const``, so the slice profile ``x^2/(2 R_c)`` is the exact
 curvature of the sphere along ``x`` at that ``y``. The sphere's rolling resistance is the sum of
 the slices' resistances per unit length (pressure moment ``(1/R_c) int p x dx``) times ``dy``,
@@ -63,16 +63,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import contact as _contact
-from .contact.linear import check_linear_solver
-from ._numerics import newton_root
+from .. import contact as _contact
+from ..contact.linear import check_linear_solver
+from .._numerics import newton_root
 from .contact_size import estimate_contact_size
 from .cylinder import kernel_builder as line_kernel_builder
-from .grids import FixedGrid
+from ..grids import FixedGrid
 from .layer import Layer
-from .material import storage_modulus
-from .reference import hertz_sphere
-from .result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
+from ..materials.material import storage_modulus
+from ..reference import hertz_sphere
+from ..result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
 
 __all__ = [
     "Interval",

@@ -14,8 +14,8 @@ import numpy as np
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 
-from . import layer as _layer
-from . import material as _material
+from ..engines import layer as _layer
+from ..materials import material as _material
 
 __all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
            "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "plot_master_fit",
@@ -303,8 +303,8 @@ def plot_pressure_map(x, y, pressure, *, contact=None, title=None, path=None):
 
 def plot_master_fit(master, prony, *, path=None):
     """A master curve (points coloured by temperature set) with its Prony fit, and the fit's
-    relative residuals ``log(G_fit / G_meas)`` (``master``: :class:`jaxroll.MasterCurve`,
-    ``prony``: :class:`jaxroll.PronyFit`); loss values the fit left out (weight 0) are circled."""
+    relative residuals ``log(G_fit / G_meas)`` (``master``: :class:`jaxroll.materials.MasterCurve`,
+    ``prony``: :class:`jaxroll.materials.PronyFit`); loss values the fit left out (weight 0) are circled."""
     w = np.logspace(math.log10(master.omega.min()), math.log10(master.omega.max()), 400)
     g = np.asarray(_material.complex_modulus(prony.material, w))
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
@@ -335,7 +335,7 @@ def plot_master_fit(master, prony, *, path=None):
 
 def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
     """Heat maps with contours of ``R_r(T, V)`` and ``dR_r/dT`` (``rmap``:
-    :class:`jaxroll.mastercurve.ResistanceMap`); invalid points hatched out (masked)."""
+    :class:`jaxroll.materials.ResistanceMap`); invalid points hatched out (masked)."""
     T = rmap.temperatures - 273.15
     V = rmap.speeds
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
@@ -361,8 +361,8 @@ def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
 
 def plot_shift_factors(shifts, fits: dict, *, path=None):
     """Shift factors ``log10 a_T`` against temperature with 95 % error bars and the fitted
-    laws (``shifts``: :class:`jaxroll.ShiftFactors`; ``fits``: ``{label: ShiftFit}``, e.g.
-    ``{"WLF": jr.fit_wlf(shifts), "Arrhenius": jr.fit_arrhenius(shifts)}``)."""
+    laws (``shifts``: :class:`jaxroll.materials.ShiftFactors`; ``fits``: ``{label: ShiftFit}``, e.g.
+    ``{"WLF": jr.fit_wlf(shifts), "Arrhenius": jr.materials.fit_arrhenius(shifts)}``)."""
     T = shifts.temperature
     Tf = np.linspace(T.min(), T.max(), 200)
     fig, ax = plt.subplots(figsize=(7, 4.5))

@@ -1,7 +1,7 @@
 r"""Contact-size estimates: the one home of the Hertz, Jaffar and thin-layer radius formulas.
 
 Every user of a contact radius (sphere) or half-width (cylinder) calls this module: the
-stationary pressure models of the direct method (:mod:`jaxroll.pressure`), the grid rules of the
+stationary pressure models of the direct method (:mod:`jaxroll.engines.pressure`), the grid rules of the
 full and slice models (:mod:`jaxroll.methods`), the slice algorithms' initial contact sets.
 
 Formulas (shear modulus ``G`` [Pa], ``E = 2 G (1 + nu)``, ``E* = 2 G/(1 - nu)``, radius ``R``
@@ -42,8 +42,8 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.integrate
 
-from ._numerics import as_float, newton_root, where_safe
-from .reference import hertz_cylinder, hertz_sphere, thin_layer_cylinder
+from .._numerics import as_float, newton_root, where_safe
+from ..reference import hertz_cylinder, hertz_sphere, thin_layer_cylinder
 
 __all__ = [
     "GEOMETRIES",
@@ -179,7 +179,7 @@ def contact_radius(material, layer, radius, load, *, model="thick", geometry="sp
 
     Args:
         material: a material (only its modulus is used).
-        layer: :class:`jaxroll.layer.Layer` (``H`` [m], ``nu``).
+        layer: :class:`jaxroll.engines.layer.Layer` (``H`` [m], ``nu``).
         radius: roller radius ``R`` [m].
         load: ``P`` [N] (sphere) or ``P'`` [N/m] (cylinder).
         model: ``"thick"`` ([ZG] eqs. 32-35), ``"thin"`` (eq. 40) or ``"thin-compressible"``

@@ -25,7 +25,7 @@ model                  sphere, ``S(x)``                 cylinder (plane strain),
 =====================  ===============================  ====================================
 
 Contact radii (the ``r_c``/``a`` column above, Jaffar's law, the moduli they use) live in
-:mod:`jaxroll.contact_size`; ``contact_radius`` is re-exported here. The radius uses the
+:mod:`jaxroll.engines.contact_size`; ``contact_radius`` is re-exported here. The radius uses the
 **static** modulus by default (``E = 2 G'(0)(1+nu)``, ``= 3 G0`` at ``nu = 0.5``): this
 reproduces the radii [ZG] states (H = 5 mm, P = 120 N: 4.87 mm; H = 10 um, R = 2000 m,
 P = 0.2..2 kN: 3.33..4.88 mm).
@@ -41,9 +41,9 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.special
 
-from ._numerics import as_float, where_safe
+from .._numerics import as_float, where_safe
 from .contact_size import GEOMETRIES, check_geometry, contact_radius, jaffar_coefficients  # noqa: F401 (re-exported)
-from .result import REGIMES
+from ..result import REGIMES
 from .special import j1, j2, j3
 
 __all__ = [

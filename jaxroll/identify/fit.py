@@ -31,9 +31,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._lsq import least_squares
-from .io import UNITS, Column, DataWarning, read_table
-from .material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
+from .._lsq import Z95, least_squares
+from ..io import UNITS, Column, DataWarning, read_table
+from ..materials.material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
 
 __all__ = [
     "DMAData",
@@ -44,9 +44,6 @@ __all__ = [
     "read_dma_csv",
     "read_rolling_csv",
 ]
-
-Z95 = 1.959963984540054
-
 
 class IdentifiabilityWarning(UserWarning):
     """The data do not constrain a parameter (large relative error or near-total correlation)."""
@@ -377,7 +374,7 @@ def _predict_rolling(material, layer, data, problem):
     :func:`jaxroll.rolling_resistance_grid` (one kernel per speed, warm-started loads) and picks
     the data points from it (``data["iv"], data["ip"]``); every other method vmaps
     :func:`jaxroll.rolling_resistance` over the points."""
-    from .rolling import rolling_resistance, rolling_resistance_grid  # the front doors
+    from ..rolling import rolling_resistance, rolling_resistance_grid  # the front doors
 
     kw = dict(radius=problem.radius, geometry=problem.geometry, method=problem.method, throw=False)
     if _use_table(problem.method):
@@ -387,7 +384,7 @@ def _predict_rolling(material, layer, data, problem):
 
 
 def _use_table(method):
-    from .methods import Full
+    from ..methods import Full
 
     return isinstance(method, Full)
 
@@ -466,7 +463,7 @@ def _check_problem(rolling, dma, initial, free, layer, radius, geometry, method,
         return None
     if layer is None or radius is None:
         raise ValueError("rolling-resistance data need layer= and radius=")
-    from .methods import as_method
+    from ..methods import as_method
 
     method = as_method(method)
     method.check_geometry(geometry)

@@ -43,8 +43,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .io import write_table
-from .result import RESULTS
+from ..io import write_table
+from ..result import RESULTS
 
 __all__ = ["Case", "CASES", "Settings", "FULL", "QUICK", "PAPER_TIMES", "PAPER_FACTORS", "Reproduction", "run",
            "write_outputs", "reproduce", "METHOD_NAMES"]
@@ -266,7 +266,7 @@ def _full_window(s: Settings, cases: Sequence[Case]) -> int:
     reference compiles once."""
     import jaxroll as jr
 
-    r = max(float(jr.estimate_contact_size(_material(), jr.Layer(c.H), c.R, c.loads[1])) for c in cases)
+    r = max(float(jr.engines.contact_size.estimate_contact_size(_material(), jr.Layer(c.H), c.R, c.loads[1])) for c in cases)
     return max(41 if s.spacing <= 2.5e-4 else 1, 2 * math.ceil(1.15 * r / s.spacing) + 1)
 
 

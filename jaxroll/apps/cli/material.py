@@ -1,0 +1,132 @@
+"""``jaxroll material``: raw multi-temperature DMA -> shift factors, WLF, master curve, Prony series, exports."""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ...io import write_table
+from .options import count, poisson, positive, progress_args, say
+
+
+def run(args) -> int:
+    import jaxroll as jr
+    from jaxroll.apps import plot
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    tell = say(args.progress)
+    tell(f"material: reading {args.dma}")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", jr.DataWarning)
+        sw = jr.read_dma_sweeps(args.dma, poisson=args.poisson)
+    for w in caught:
+        print(f"jaxroll material: warning: {w.message}", file=sys.stderr)
+    tell(f"material: shift factors of {sw.n_sets} temperature sets ({args.shift_moduli} moduli), WLF and Arrhenius fits")
+    sh = jr.fit_shift_factors(sw, T_ref=args.T_ref, moduli=args.shift_moduli)
+    wlf, arr = jr.fit_wlf(sh), jr.materials.fit_arrhenius(sh)
+    master = jr.master_curve(sw, sh)
+    artifacts = jr.materials.loss_artifacts(master)
+    weights = np.ones((len(master.omega), 2))
+    if args.drop_loss_artifacts:
+        weights[artifacts, 1] = 0.0
+    tell(f"material: Prony fit to {len(master.omega)} master-curve points")
+    pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights)
+    mat = pf.material
+    rms_s, rms_l = (float(np.sqrt(np.mean(pf.residuals[weights[:, k] > 0, k] ** 2))) for k in (0, 1))
+    hz = ", ".join(f"{f:.4g}" for f in np.unique(np.round(master.frequency[artifacts] / (2 * np.pi), 6)))
+    found = (f"loss artifacts: {int(artifacts.sum())} loss values at {hz} Hz turn up in most sets ("
+             + ("left out of the Prony fit)" if args.drop_loss_artifacts else
+                "kept in the Prony fit; --drop-loss-artifacts leaves them out)")) if artifacts.any() else \
+        "loss artifacts: none found"
+    G0 = float(mat.glassy_modulus())
+    (c1_lo, c1_hi), (c2_lo, c2_hi) = wlf.ci95["C1"], wlf.ci95["C2"]
+    ea_lo, ea_hi = arr.ci95["activation_energy"]
+    report = [
+        f"DMA: {args.dma}: {len(sw.omega)} points in {sw.n_sets} temperature sets, {sw.set_temperature[0]:.2f}.."
+        f"{sw.set_temperature[-1]:.2f} K ({sw.source})",
+        f"shift factors: T_ref = {sh.T_ref:.2f} K (set {sh.reference}); log10 a_T {sh.log10_aT[0]:+.2f} at "
+        f"{sh.temperature[0]:.2f} K .. {sh.log10_aT[-1]:+.2f} at {sh.temperature[-1]:.2f} K; master curve "
+        f"{np.log10(master.omega[0]):.1f}..{np.log10(master.omega[-1]):.1f} decades of reduced omega [rad/s]",
+        f"WLF: C1 = {wlf.params['C1']:.4g} (95 % [{c1_lo:.4g}, {c1_hi:.4g}]), C2 = {wlf.params['C2']:.4g} K "
+        f"(95 % [{c2_lo:.4g}, {c2_hi:.4g}]); rms {wlf.rms:.3f} decades (the law written with the material)",
+        f"Arrhenius: E_a = {arr.params['activation_energy']:.4g} J/mol (95 % [{ea_lo:.4g}, {ea_hi:.4g}]); "
+        f"rms {arr.rms:.3f} decades",
+        found,
+        f"Prony: {pf.n_terms} terms, tau {float(np.min(mat.tau)):.3g}..{float(np.max(mat.tau)):.3g} s; rms log "
+        f"residual {pf.rms:.4f} of the values fitted (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = {float(mat.G_inf):.4g} Pa, "
+        f"G_0 = {G0:.4g} Pa (shear)",
+    ]
+    info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
+            float(sw.set_temperature[-1])], "T_ref": sh.T_ref,
+            "WLF": {"C1": wlf.params["C1"], "C2": wlf.params["C2"], "ci95": wlf.ci95, "rms_decades": wlf.rms},
+            "Arrhenius": {"activation_energy": arr.params["activation_energy"],
+                          "ci95": arr.ci95["activation_energy"], "rms_decades": arr.rms},
+            "prony": {"n_terms": pf.n_terms, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+                      "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
+                                                   for f in master.frequency[artifacts]}),
+                      "loss_artifacts_left_out": bool(args.drop_loss_artifacts and artifacts.any())}}
+    jr.save_material(out / "material.json", mat, wlf.shift, info=info)
+    jr.save_material(out / "material.csv", mat, wlf.shift)
+    jr.materials.write_abaqus(mat, out / "material_abaqus.inp", shift=wlf.shift, poisson=args.fe_poisson)
+    jr.materials.write_ansys(mat, out / "material_ansys.mac", shift=wlf.shift, poisson=args.fe_poisson)
+    laws = [np.asarray(f.shift.log_shift(sh.temperature)) / np.log(10.0) for f in (wlf, arr)]
+    write_table(out / "shift_factors.csv", {"temperature": sh.temperature, "log10_aT": sh.log10_aT, "sigma": sh.sigma,
+                                            "step_sigma": sh.step_sigma, "wlf_log10_aT": laws[0],
+                                            "arrhenius_log10_aT": laws[1],
+                                            "reference": (np.arange(len(sh.temperature)) == sh.reference).astype(int)},
+                ["K", "-", "-", "-", "-", "-", "-"], formats=".8g")
+    fitted = np.asarray(jr.complex_modulus(mat, master.omega))
+    write_table(out / "master_curve.csv", {"reduced_omega": master.omega, "storage": master.storage, "loss": master.loss,
+                                           "temperature": sw.set_temperature[master.set], "set": master.set,
+                                           "prony_storage": fitted.real, "prony_loss": fitted.imag},
+                ["rad/s", "Pa", "Pa", "K", "-", "Pa", "Pa"],
+                formats={**dict.fromkeys(("reduced_omega", "storage", "loss", "prony_storage", "prony_loss"), ".8g"),
+                         "temperature": ".6g"})
+    plot.close(plot.plot_master_fit(master, pf, path=out / "master_curve.png"))
+    plot.close(plot.plot_shift_factors(sh, {"WLF": wlf, "Arrhenius": arr}, path=out / "shift_factors.png"))
+    (out / "material_report.txt").write_text("\n".join(report) + "\n")
+    written = ["material.json", "material.csv", "material_abaqus.inp", "material_ansys.mac", "shift_factors.csv",
+               "master_curve.csv", "master_curve.png", "shift_factors.png", "material_report.txt"]
+    print("\n".join(report))
+    print(f"wrote {', '.join(str(out / w) for w in written)}  ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def add_parser(sub) -> None:
+    """The ``material`` subcommand on ``sub`` (argparse subparsers)."""
+    mt = sub.add_parser(
+        "material", help="raw multi-temperature DMA -> shift factors, WLF, master curve, Prony series, exports",
+        description="Read frequency sweeps at several temperatures (CSV: a header row of names, e.g. f, E_stor, "
+        "E_loss, T[, Set] or f, G_stor, G_loss, T, then a units row or units in the names: Hz|rad/s, "
+        "Pa|kPa|MPa|GPa, C|K), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
+        "curve at the reference temperature and fit a Prony series to it. Writes material.json and material.csv "
+        "(for jaxroll map), material_abaqus.inp (*VISCOELASTIC, TIME=PRONY; *TRS WLF), material_ansys.mac "
+        "(TB,PRONY; TB,SHIFT WLF), shift_factors.csv, master_curve.csv, master_curve.png, shift_factors.png and "
+        "material_report.txt into --out. Units SI (Pa, s, K).")
+    mt.add_argument("dma", help="DMA CSV (frequency sweeps at several temperatures)")
+    mt.add_argument("--poisson", type=poisson("--poisson"), default=0.5,
+                    help="Poisson's ratio converting tensile moduli E to shear, G = E / (2 (1 + nu)); unused for "
+                    "shear data (0.5)")
+    mt.add_argument("--T-ref", dest="T_ref", type=positive("--T-ref [K]"), default=None,
+                    help="reference temperature [K]: the set nearest to it is the reference (default: the set "
+                    "nearest the middle of the measured range)")
+    mt.add_argument("--shift-moduli", dest="shift_moduli", choices=["storage", "loss", "both"], default="storage",
+                    help="moduli compared when shifting the sets (storage: robust to loss artifacts such as an "
+                    "upturn at the top frequency)")
+    mt.add_argument("--prony-terms", dest="prony_terms", type=count("--prony-terms"), default=None,
+                    help="relaxation times before pruning (default: one per decade of the master curve, plus one)")
+    mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
+                    help="leave out of the Prony fit the loss values at a measured frequency where the loss turns "
+                    "up in most sets (jaxroll.materials.loss_artifacts: its second difference along each sweep above 4 robust "
+                    "standard deviations in >= 3/4 of the sets; the shipped file's 100 Hz); always reported")
+    mt.add_argument("--fe-poisson", dest="fe_poisson", type=poisson("--fe-poisson", incompressible=False),
+                    default=0.49, help="instantaneous Poisson's ratio written to the Abaqus/ANSYS files (< 0.5; 0.49)")
+    progress_args(mt, False)
+    mt.add_argument("--out", default="jaxroll-material", help="output folder (jaxroll-material)")
+    mt.set_defaults(func=run)

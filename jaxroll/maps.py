@@ -1,0 +1,96 @@
+"""Rolling-resistance maps over temperature x speed of a temperature-shifted material, with
+the gradients a designer needs (``dR_r/dT``, ``dR_r/dH``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .io import write_table
+
+
+@dataclasses.dataclass(frozen=True)
+class ResistanceMap:
+    """Rolling resistance over temperature x speed (:func:`resistance_map`).
+
+    Attributes:
+        temperatures [K], speeds [m/s]: the axes.
+        value: ``R_r`` [N for a sphere, N/m for a cylinder], shape ``(n_T, n_V)``.
+        valid: ``result == RESULTS.successful`` per point.
+        dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (``jax.grad``).
+        seconds: wall time of the compiled map (values and gradients, compilation excluded)
+            divided by the number of points [s].
+        result: the :data:`jaxroll.RESULTS` code per point (why a point is not valid).
+    """
+
+    temperatures: np.ndarray
+    speeds: np.ndarray
+    value: np.ndarray
+    valid: np.ndarray
+    dR_dT: np.ndarray
+    dR_dH: np.ndarray
+    seconds: float
+    result: np.ndarray | None = None
+
+    def write_csv(self, path, *, unit="N"):
+        """One row per point: temperature [K], speed [m/s], R_r, dR/dT, dR/dH, valid and (when
+        known) the name of the point's :data:`jaxroll.RESULTS` code."""
+        from .result import RESULTS
+
+        T, V = (a.ravel() for a in np.meshgrid(self.temperatures, self.speeds, indexing="ij"))
+        cols = {"temperature": T, "speed": V, "rolling_resistance": np.ravel(self.value), "dR_dT": np.ravel(self.dR_dT),
+                "dR_dH": np.ravel(self.dR_dH), "valid": np.ravel(self.valid).astype(int)}
+        units = ["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-"]
+        if self.result is not None:
+            cols["result"] = [RESULTS.names[int(c)] for c in np.ravel(self.result)]
+            units.append("-")
+        write_table(path, cols, units, formats={"temperature": ".6g", "speed": ".6g", "rolling_resistance": ".8g",
+                                                "dR_dT": ".6g", "dR_dH": ".6g"})
+
+
+def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",
+                   method="direct") -> ResistanceMap:
+    """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
+    ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
+    ``dR_r/dH`` from ``jax.grad``, all points in one compiled, vmapped program.
+
+    Args:
+        material: e.g. the :class:`PronyFit`'s ``material``; shift: its WLF/Arrhenius law.
+        layer: :class:`jaxroll.Layer` (its ``H`` [m] is the thickness differentiated).
+        radius [m], load [N, or N/m for a cylinder]; temperatures [K], speeds [m/s]: 1D axes.
+        geometry: ``"sphere"`` or ``"cylinder"``.
+        method: ``"direct"`` (default: milliseconds per point with any Prony spectrum) or a
+            method resolved over the whole map (``method.resolve(...)``; the periodic full
+            models need periods of ~20 V tau_max, impractical for spectra of 20 decades).
+    """
+    import time
+
+    from .engines.layer import Layer
+    from .materials.material import at_temperature
+    from .result import RESULTS
+    from .rolling import rolling_resistance
+
+    T = jnp.asarray(np.asarray(temperatures, float))
+    V = jnp.asarray(np.asarray(speeds, float))
+
+    def one(Ti, Vi, H):
+        lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
+        r = rolling_resistance(at_temperature(material, shift, Ti), lay, radius=radius, load=load, speed=Vi,
+                               geometry=geometry, method=method, throw=False)
+        return r.value, r.result
+
+    def value_and_grads(Ti, Vi, H):
+        (v, code), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
+        return v, code, g[0], g[1]
+
+    grid = jax.jit(jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None)))
+    H = jnp.asarray(layer.H)
+    jax.block_until_ready(grid(T, V, H))  # compile
+    t0 = time.perf_counter()
+    v, code, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
+    seconds = (time.perf_counter() - t0) / v.size
+    return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))
