@@ -121,7 +121,7 @@ def main():
     ex = float(jr.reference.exact_cylinder_halfspace(MAT, R, P1, V1).rolling_resistance)
     print(f"\none point (half-space, V tau/a0 = 1, jr.Full() automatic grid, eager): first call {first:.2f} s, "
           f"warm {1e3 * run:.1f} ms, R_r = {float(res.value):.5g} N/m, exact {ex:.5g}, "
-          f"err {float(res.value) / ex - 1:+.2e}, iterations {int(res.iterations)}")
+          f"err {float(res.value) / ex - 1:+.2e}, iterations {int(res.solution.iterations)}")
 
     # ---- one point, explicit grid ----
     grid1, a1 = line_grid([P1])
@@ -172,7 +172,7 @@ def main():
         G, tau, f, H_ = th
         out = jr.rolling_resistance_grid(jr.StandardLinearSolid(G, tau, f), jr.Layer(H_), radius=R, loads=loads,
                                          speeds=speeds, geometry="cylinder", method=method)
-        return out.value, out.result, out.iterations
+        return out.value, out.result, out.solution.iterations
 
     th = jnp.asarray([G0, TAU, F, H])
     Ps, Vs = jnp.asarray(loads), jnp.asarray(speeds)

@@ -69,7 +69,7 @@ def main():
 
         def table(H, loads, speeds, method=method):
             out = jr.rolling_resistance_grid(mat, jr.Layer(H), radius=R, loads=loads, speeds=speeds, method=method)
-            return out.value, out.result, out.iterations
+            return out.value, out.result, out.solution.iterations
 
         c1, t1, out1, _ = aot(single, args.H, 100.0, 0.01, repeat=repeat)
         c2, t2, (v, st, it), _ = aot(table, args.H, loads, speeds, repeat=repeat)

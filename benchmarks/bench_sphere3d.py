@@ -60,7 +60,7 @@ def main():
     def table(G, tau, f, H, loads, speeds):
         out = jr.rolling_resistance_grid(jr.StandardLinearSolid(G, tau, f), jr.Layer(H), radius=R, loads=loads,
                                          speeds=speeds, method=method)
-        return out.value, out.result, out.iterations
+        return out.value, out.result, out.solution.iterations
 
     theta = (G0, TAU, F, args.H, jnp.asarray(loads), jnp.asarray(speeds))
     print(f"device: {jax.devices()[0].device_kind} x {len(jax.devices())}; cpu count {os.cpu_count()}; "

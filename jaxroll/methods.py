@@ -34,7 +34,8 @@ import numpy as np
 from . import contact as _contact
 from .contact.linear import check_linear_solver
 from .engines import cylinder, direct, slices, sphere3d
-from .engines.contact_size import check_geometry, estimate_contact_size
+from .engines.contact_size import estimate_contact_size
+from .geometry import as_geometry, check_geometry
 from .grids import AutoGrid, FixedGrid, check_memory
 from .result import RollingResult
 
@@ -230,7 +231,7 @@ class Full(_GridMethod):
         check_linear_solver(self.linear_solver, (_contact.GMRES, _contact.Dense), "Full.linear_solver")
 
     def grid_ndim(self, geometry):
-        return 2 if geometry == "sphere" else 1
+        return as_geometry(geometry).surface_dims
 
     def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
         self.check_geometry(geometry)

@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["RESULTS", "RollingResult", "REGIMES", "SolverError", "ValidityWarning", "check_validity", "first_failure",
+__all__ = ["RESULTS", "GridSolution", "RollingResult", "REGIMES", "SolverError", "ValidityWarning", "check_validity", "first_failure",
            "full_model_result", "merge_results", "raise_on_failure", "MAX_CONTACT_RATIO"]
 
 #: Largest contact radius (sphere) or half-width (cylinder) over roller radius of a valid
@@ -151,6 +151,29 @@ def raise_on_failure(result) -> None:
         raise SolverError(codes[bad[0]], count=bad.size, total=codes.size)
 
 
+class GridSolution(eqx.Module):
+    """What a grid model's contact solve leaves besides ``R_r`` (:attr:`RollingResult.solution`;
+    the full 2D/3D models, the slices and :class:`~jaxroll.DirectElastic` fill it).
+
+    Attributes:
+        penetration: rigid-body penetration [m] (the slices: of the middle slice).
+        pressure: contact pressure on the grid [Pa].
+        grid: coordinates of the pressure grid [m]: ``x`` (cylinder) or ``(x, y)`` (sphere).
+        iterations: active-set iterations (None where not iterated).
+        residual: final solver residual (None where not iterated).
+        resistance_dissipation: ``R_r`` from the dissipated power, ``-int p du/dx`` [N or N/m]
+            (the full models and slices; ``RollingResult.value`` is the pressure-moment form and
+            ``truncation`` their relative difference).
+    """
+
+    penetration: jax.Array
+    pressure: jax.Array
+    grid: jax.Array | tuple
+    iterations: jax.Array | None = None
+    residual: jax.Array | None = None
+    resistance_dissipation: jax.Array | None = None
+
+
 class RollingResult(eqx.Module):
     """Rolling resistance and diagnostics.
 
@@ -164,11 +187,8 @@ class RollingResult(eqx.Module):
         truncation: estimated relative truncation / discretisation error of ``value`` [-].
         result: integer :data:`RESULTS` code, ``RESULTS.successful`` (0) when the value is
             trustworthy; otherwise the first reason it is not.
-        penetration: rigid-body penetration [m] (full models; else None).
-        pressure: contact pressure on the grid [Pa] (full models; else None).
-        grid: coordinates of the pressure grid [m] (full models; else None).
-        iterations: solver iterations (full models; else None).
-        residual: final solver residual (full models; else None).
+        solution: the grid models' :class:`GridSolution` (pressure, penetration, grid,
+            iterations, residual); None for the direct method.
     """
 
     value: jax.Array
@@ -177,11 +197,7 @@ class RollingResult(eqx.Module):
     regime: jax.Array
     truncation: jax.Array
     result: jax.Array
-    penetration: jax.Array | None = None
-    pressure: jax.Array | None = None
-    grid: jax.Array | tuple | None = None
-    iterations: jax.Array | None = None
-    residual: jax.Array | None = None
+    solution: GridSolution | None = None
 
     @property
     def valid(self) -> jax.Array:
@@ -252,5 +268,7 @@ def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, 
     scale = jnp.maximum(jnp.abs(resistance), 1e-300)
     trunc = jax.lax.stop_gradient(jnp.abs(resistance - resistance_dissipation) / scale)
     return RollingResult(value=resistance, contact_radius=contact_radius, gamma=gamma,
-                         regime=jnp.asarray(int(REGIMES.full)), truncation=trunc, result=result, penetration=penetration,
-                         pressure=pressure, grid=grid, iterations=iterations, residual=residual)
+                         regime=jnp.asarray(int(REGIMES.full)), truncation=trunc, result=result,
+                         solution=GridSolution(penetration=penetration, pressure=pressure, grid=grid,
+                                                  iterations=iterations, residual=residual,
+                                                  resistance_dissipation=resistance_dissipation))

@@ -29,7 +29,8 @@ import numpy as np
 from ._numerics import as_float, check_roller_values, input_checks, roller_inputs
 from .engines.layer import Layer
 from .materials.material import AbstractMaterial
-from .engines.contact_size import check_geometry, estimate_contact_size
+from .engines.contact_size import estimate_contact_size
+from .geometry import check_geometry
 from .methods import AbstractMethod, Full, Slices, as_method
 from .result import RESULTS, RollingResult, SolverError, ValidityWarning, check_validity, raise_on_failure
 

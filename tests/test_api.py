@@ -267,3 +267,30 @@ def test_newton_root_returns_the_root_it_reached():
 def root_of(g0, b1, b2):
     roots = np.roots([-8 * g0**5 * 0.4 * b2, 0, 3 * np.pi - 8 * g0**3 * b1, 0, 0, -3 * np.pi])
     return min(r.real for r in roots if abs(r.imag) < 1e-12 and r.real > 0.5)
+
+
+def test_geometry_type_and_names():
+    # the one place that knows the geometries: members equal their names (so strings work
+    # everywhere), units follow the contact type, anything else fails in one line
+    assert jr.Geometry("sphere") == "sphere" and jr.Geometry.cylinder == "cylinder"
+    assert (jr.Geometry.sphere.load_unit, jr.Geometry.cylinder.load_unit) == ("N", "N/m")
+    assert (jr.Geometry.sphere.surface_dims, jr.Geometry.cylinder.surface_dims) == (2, 1)
+    with pytest.raises(ValueError, match=r"^unknown geometry 'cone'; choose from \('sphere', 'cylinder'\)$"):
+        jr.rolling_resistance(SLS, jr.Layer(0.01), radius=0.02, load=10.0, speed=0.01, geometry="cone",
+                              method=jr.Direct())
+
+
+def test_solution_part_only_on_grid_models():
+    # the direct method has no grid solution; a full model's carries the pressure that balances
+    # the load (sum p dx = P: an exact property of the solved contact, independent of the value)
+    layer = jr.Layer(0.01)
+    direct = jr.rolling_resistance(SLS, layer, radius=0.02, load=1e4, speed=0.01, geometry="cylinder",
+                                   method=jr.Direct())
+    assert direct.solution is None
+    full = jr.rolling_resistance(SLS, layer, radius=0.02, load=1e4, speed=0.01, geometry="cylinder",
+                                 method=jr.Full())
+    sol = full.solution
+    assert isinstance(sol, jr.GridSolution)
+    dx = float(sol.grid[1] - sol.grid[0])
+    assert float(jnp.sum(sol.pressure)) * dx == pytest.approx(1e4, rel=1e-8)
+    assert float(sol.penetration) > 0 and int(sol.iterations) >= 1

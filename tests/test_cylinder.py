@@ -131,7 +131,8 @@ def _thin_layer_errors(ratio):
                                 geometry="cylinder", method="full")
     assert int(res.result) == 0
     assert float(res.value) == 0.0 or abs(float(res.value)) * R / (P * a) < 1e-12  # elastic
-    return (float(res.pressure.max()) / (15 * P / (16 * a)) - 1, float(res.penetration) / (a * a / (6 * R)) - 1)
+    return (float(res.solution.pressure.max()) / (15 * P / (16 * a)) - 1,
+            float(res.solution.penetration) / (a * a / (6 * R)) - 1)
 
 
 def test_thin_layer_closed_form_error_is_second_order_in_H_over_a():

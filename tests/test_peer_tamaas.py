@@ -36,7 +36,7 @@ def test_static_sphere_vs_tamaas():
     with pytest.warns(jr.ValidityWarning, match="period is shorter"):  # L < 20 a: the rolling rule
         res = jr.rolling_resistance(jr.StandardLinearSolid(G, 1.0, 0.0), jr.Layer(np.inf), radius=R, load=P,
                                     speed=0.0, method=method, throw=False)
-    p_jr = np.asarray(res.pressure)
+    p_jr = np.asarray(res.solution.pressure)
     assert np.sum(p_jr) * CELL * CELL == pytest.approx(P, rel=1e-8)
     r_tm, r_jr = (np.sqrt(np.sum(p > 0) / np.pi) for p in (p_tm, p_jr))  # contact radius [cells]
     # contact sets: cell-quantised (one boundary ring is 2/6.8 = 30 % of the area at 6.8 cells

@@ -265,7 +265,7 @@ def test_grid_entry_matches_single_solves():
     s = _case("SP")
     # same discrete problem and iterations: rounding only
     np.testing.assert_allclose(float(out.value[0, 0]), float(s.resistance), rtol=1e-12)
-    np.testing.assert_allclose(float(out.penetration[0, 0]), float(s.middle_penetration), rtol=1e-12)
+    np.testing.assert_allclose(float(out.solution.penetration[0, 0]), float(s.middle_penetration), rtol=1e-12)
 
 
 def test_convergence_slices_reduced():

@@ -363,7 +363,7 @@ def test_result_and_grid():
     grid = _grid(A_H / CPR)
     sw = jax.jit(lambda G, g: jr.Full(grid=g).evaluate_grid(jr.StandardLinearSolid(G, TAU, F), lay, R, loads,
                                                             jnp.asarray([V]), "sphere"))(G0, grid)
-    assert sw.value.shape == (1, 2) and sw.pressure.shape == (1, 2, W, W)
+    assert sw.value.shape == (1, 2) and sw.solution.pressure.shape == (1, 2, W, W)
     for j, Pj in enumerate([6.0, 10.0]):
         o = _solve(_theta(H=0.03, load=Pj), V, A_H / CPR)
         assert abs(float(sw.value[0, j]) / float(o["Rr"]) - 1.0) < 1e-7
@@ -372,7 +372,7 @@ def test_result_and_grid():
     # 20 r the layer needs to recover between passes: flagged, not silently valid
     assert int(o["status"]) == 0 and int(res.regime) == 4
     assert int(res.result) == jr.RESULTS.period_too_short and not bool(res.valid)
-    assert res.pressure.shape == (W, W) and res.grid[0].shape == (W,)
+    assert res.solution.pressure.shape == (W, W) and res.solution.grid[0].shape == (W,)
     assert float(res.value) > 0 and float(res.truncation) < 0.01
     # the contact-set radius of the rolling contact lies between the glassy and relaxed Hertz radii
     assert float(ref.hertz_sphere(P, R, G0 * (1 + F)).contact_radius) * 0.97 < float(res.contact_radius)

@@ -288,13 +288,14 @@ def _pressure_fields(s: Settings, log) -> dict:
     sph = jr.rolling_resistance(mat, layer, radius=0.02, load=P, speed=V, method=jr.Full(
         grid=jr.AutoGrid(cells_per_radius=8 if s.spacing > 2.5e-4 else 12)))
     log(f"pressure fields (H = 5 mm, P = {P:g} N, V = {V:g} m/s): {time.perf_counter() - t:.1f} s")
-    x, y = sph.grid
+    x, y = sph.solution.grid
     return dict(
         V=V, P=P, cylinder_load=P_line,
-        cylinder_x=np.asarray(cyl.grid), cylinder_p=np.asarray(cyl.pressure), cylinder_p0=np.asarray(cyl0.pressure),
+        cylinder_x=np.asarray(cyl.solution.grid), cylinder_p=np.asarray(cyl.solution.pressure),
+        cylinder_p0=np.asarray(cyl0.solution.pressure),
         cylinder_R=float(cyl.value),
-        x=np.asarray(x), y=np.asarray(y), p=np.asarray(sph.pressure),
-        contact=np.asarray(sph.pressure) > 0, R_r=float(sph.value),
+        x=np.asarray(x), y=np.asarray(y), p=np.asarray(sph.solution.pressure),
+        contact=np.asarray(sph.solution.pressure) > 0, R_r=float(sph.value),
     )
 
 

@@ -43,10 +43,10 @@ import numpy as np
 import scipy.integrate
 
 from .._numerics import as_float, newton_root, where_safe
+from ..geometry import check_geometry  # noqa: F401 (re-exported)
 from ..reference import hertz_cylinder, hertz_sphere, thin_layer_cylinder
 
 __all__ = [
-    "GEOMETRIES",
     "MODELS",
     "contact_radius",
     "estimate_contact_size",
@@ -55,13 +55,7 @@ __all__ = [
     "shear_modulus_for",
 ]
 
-GEOMETRIES = ("sphere", "cylinder")
 MODELS = ("thick", "thin", "thin-compressible")
-
-
-def check_geometry(geometry: str) -> None:
-    if geometry not in GEOMETRIES:
-        raise ValueError(f"unknown geometry {geometry!r}; choose from {GEOMETRIES}")
 
 
 # --------------------------------------------------------------------------------------

@@ -42,7 +42,8 @@ import numpy as np
 import scipy.special
 
 from .._numerics import as_float, where_safe
-from .contact_size import GEOMETRIES, check_geometry, contact_radius, jaffar_coefficients  # noqa: F401 (re-exported)
+from ..geometry import check_geometry
+from .contact_size import contact_radius, jaffar_coefficients  # noqa: F401 (re-exported)
 from ..result import REGIMES
 from .special import j1, j2, j3
 
@@ -67,9 +68,6 @@ THICK_MAX_GAMMA = 0.9
 #: paper's thin example has gamma = 333..488. Between 0.9 and 10 no model of [ZG] applies
 #: (its section 4.5): results there are flagged ``valid = False``.
 THIN_MIN_GAMMA = 10.0
-
-_GEOMETRIES = GEOMETRIES
-
 
 def _check_model(model: str, geometry: str) -> None:
     if model not in PRESSURE_MODELS:

@@ -64,7 +64,7 @@ from .contact_size import estimate_contact_size
 from ..grids import FixedGrid
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from ..materials.material import complex_modulus, glassy_modulus
-from ..result import REGIMES, RESULTS, RollingResult, first_failure, full_model_result, merge_results
+from ..result import REGIMES, RESULTS, GridSolution, RollingResult, first_failure, full_model_result, merge_results
 
 __all__ = [
     "SphereSolution",
@@ -413,7 +413,5 @@ def direct_elastic_rolling_resistance(material, layer: Layer, R, P, V, grid: Fix
         regime=jnp.asarray(int(REGIMES.elastic)),
         truncation=trunc,
         result=merge_results(st.result, first_failure((~ok, RESULTS.period_too_short))),
-        penetration=st.penetration,
-        pressure=st.pressure,
-        grid=(st.x, st.y),
+        solution=GridSolution(penetration=st.penetration, pressure=st.pressure, grid=(st.x, st.y)),
     )

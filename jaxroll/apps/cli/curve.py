@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...geometry import Geometry
 from ...io import write_table
 from .options import count, floats, method_from_args, method_name, model_args, positive, progress_args, thickness, warn_invalid
 
@@ -32,7 +33,7 @@ def run(args) -> int:
         res = jr.rolling_resistance_grid(mat, layer, radius=args.radius, loads=loads, speeds=speeds,
                                          geometry=args.geometry, method=method_from_args(args), throw=False)
     values, codes = np.asarray(res.value).T, np.asarray(res.result).T  # (loads, speeds)
-    unit = "N" if args.geometry == "sphere" else "N/m"
+    unit = Geometry(args.geometry).load_unit
     P_, V_ = (a.ravel() for a in np.meshgrid(loads, speeds, indexing="ij"))
     write_table(out / "curve.csv", {"speed": V_, "load": P_, "rolling_resistance": values.ravel(),
                                     "valid": (codes.ravel() == 0).astype(int),

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...geometry import Geometry
 from ...io import write_table
 from .options import count, method_args, method_from_args, method_name, nonnegative, positive, progress_args
 
@@ -76,7 +77,7 @@ def run(args) -> int:
     (out / "fit_params.json").write_text(json.dumps(payload, indent=2) + "\n")
     written = ["fit_report.txt", "fit_params.json"]
     if data is not None:
-        unit = "N" if args.geometry == "sphere" else "N/m"
+        unit = Geometry(args.geometry).load_unit
         n_rr = len(data.value)
         sig = data.value if data.sigma is None else data.sigma
         fitted = np.asarray(data.value) - np.asarray(fit.residuals[:n_rr]) * np.asarray(sig)

@@ -9,6 +9,7 @@ from pathlib import Path
 import equinox as eqx
 import numpy as np
 
+from ...geometry import Geometry
 from .options import count, method_args, method_from_args, method_name, nonnegative, poisson, positive, progress_args, say, warn_invalid
 
 
@@ -38,7 +39,7 @@ def run(args) -> int:
     tmax = args.tmax if args.tmax is not None else (measured[1] if measured else T_ref + 60.0)
     if not tmin < tmax:
         raise ValueError(f"--tmin ({tmin:g} K) must be below --tmax ({tmax:g} K)")
-    unit = "N" if args.geometry == "sphere" else "N/m"
+    unit = Geometry(args.geometry).load_unit
     load = args.load if args.load is not None else {"sphere": 10.0, "cylinder": 1e4}[args.geometry]
     temperatures = np.linspace(tmin, tmax, args.n_temperatures)
     speeds = np.logspace(np.log10(args.vmin), np.log10(args.vmax), args.n_speeds)

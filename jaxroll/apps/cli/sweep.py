@@ -9,6 +9,7 @@ from pathlib import Path
 import equinox as eqx
 import numpy as np
 
+from ...geometry import Geometry
 from ...io import write_table
 from .options import method_from_args, model_args, progress_args, thickness, warn_invalid
 
@@ -94,7 +95,7 @@ def run(args) -> int:
     cols.update(rolling_resistance=values.ravel(), valid=(codes.ravel() == 0).astype(int),
                 result=[jr.RESULTS.names[int(c)] for c in codes.ravel()])
     write_table(out / "sweep.csv", cols, [_SWEEP_NAMES[n].split("[")[1].rstrip("]") for n in names]
-                + ["N" if args.geometry == "sphere" else "N/m", "-", "-"], formats=".8g")
+                + [Geometry(args.geometry).load_unit, "-", "-"], formats=".8g")
     warn_invalid(codes, "sweep")
     print(f"{values.size} points; wrote {out / 'sweep.csv'}  ({time.perf_counter() - t0:.1f} s)")
     return 0
