@@ -398,108 +398,117 @@ def prepare(material, layer, V, grid: FixedGrid, linear_solver=Interval()) -> _P
     return _Prepared(kernel=kernel, op=op, x=x, dx=dx, period=None if grid.period is None else grid.period[0])
 
 
-def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slices, linear_solver, tol=1e-10,
-                max_steps=60, root_tol=1e-10, root_max_steps=40) -> SliceSolution:
-    """One sphere (load ``P``, speed ``V``) on prepared per-speed data; never raises."""
-    x, dx = prep.x, prep.dx
-    m = (n_slices + 1) // 2
-    k = jnp.arange(m, dtype=float)
-    weights = jnp.where(k > 0, 2.0, 1.0)  # symmetry: slices +-y_k
+class _Slicer(eqx.Module):
+    """The 2D contact solves of one sphere's slices on prepared per-speed data (never raise)."""
 
-    def contact_radius(d_o):  # eq. 2
-        return jnp.sqrt(d_o * (2.0 * R - d_o))
+    prep: _Prepared
+    linear_solver: object = eqx.field(static=True)
+    tol: float = eqx.field(static=True)
+    max_steps: int = eqx.field(static=True)
 
-    def pen_slice(Rc, d, check=True):
-        """Pressure [Pa] and result code of a slice of radius Rc pressed to penetration d."""
-        if isinstance(linear_solver, Interval):
-            p, _, st, _, _ = solve_interval(prep.op, Rc, d, mode="penetration", max_steps=max_steps,
+    def pressed(self, Rc, d, check=True):
+        """Pressure [Pa] and result code of a slice of radius ``Rc`` pressed to penetration ``d``."""
+        if isinstance(self.linear_solver, Interval):
+            p, _, st, _, _ = solve_interval(self.prep.op, Rc, d, mode="penetration", max_steps=self.max_steps,
                                             check=check)
             return p, st
+        x = self.prep.x
         pos = d > 0.0
         d_safe = jnp.where(pos, d, 1.0)  # double-where: d <= 0 carries nothing
-        s = _contact.solve_contact(prep.kernel.compliance, x * x / (2.0 * Rc), penetration=d_safe, tol=tol,
-                                   max_steps=max_steps, linear_solver=linear_solver)
+        s = _contact.solve_contact(self.prep.kernel.compliance, x * x / (2.0 * Rc), penetration=d_safe, tol=self.tol,
+                                   max_steps=self.max_steps, linear_solver=self.linear_solver)
         return jnp.where(pos, s.pressure, 0.0), jnp.where(pos, s.result, RESULTS.successful)
 
-    def slice_outputs(Rc, p):
-        Pc = jnp.sum(p) * dx
-        Rr = jnp.sum(p * x) * dx / Rc
-        Rr_d = prep.kernel.resistance(p, dx)
-        return Pc, Rr, Rr_d
+    def loaded(self, Rc, P, material, layer):
+        """Pressure, result code and penetration of a slice of radius ``Rc`` under load ``P``
+        [N/m]; the initial contact set is the slice's stationary 2D half-width (as the cylinder)."""
+        x, dx = self.prep.x, self.prep.dx
+        a = estimate_contact_size(material, layer, Rc, P, "cylinder")
+        init = jnp.abs(x) < jnp.maximum(a, dx)
+        if isinstance(self.linear_solver, Interval):
+            p, d, st, _, _ = solve_interval(self.prep.op, Rc, P, mode="load", initial=(jnp.argmax(init),
+                                            jnp.sum(init.astype(int))), max_steps=self.max_steps)
+            return p, st, d
+        s = _contact.solve_contact(self.prep.kernel.compliance, x * x / (2.0 * Rc), P, dx, initial_contact=init,
+                                   tol=self.tol, max_steps=self.max_steps, linear_solver=self.linear_solver)
+        return s.pressure, s.result, s.penetration
 
-    def middle_load(d_o):
-        p, _ = pen_slice(R, d_o, check=False)  # the final solves are checked
-        return jnp.sum(p) * dx
+    def outputs(self, Rc, p):
+        """Load [N/m], moment-form and dissipation-form R_r [N/m] of one slice."""
+        x, dx = self.prep.x, self.prep.dx
+        return jnp.sum(p) * dx, jnp.sum(p * x) * dx / Rc, self.prep.kernel.resistance(p, dx)
 
-    # ---- common core (eqs. 6-8): eq. 7 on the middle slice, unknown y = log(d_o / d_H) ----
+
+def _log_ratio(value, target):
+    """``log(value/target)`` for a positive value, a large negative number otherwise (the root
+    finds' residual: a slice that carries nothing is far too shallow)."""
+    pos = value > 0.0
+    return jnp.where(pos, jnp.log(jnp.where(pos, value, 1.0) / target), -1e3)
+
+
+def _slice_geometry(R, d_o, n_slices, k):
+    """Eq. 2 and eq. 9: contact radius ``r_c``, slice width ``dy``, slice positions ``y``,
+    slice radii ``Rc`` and penetrations ``d_c`` for the middle penetration ``d_o``."""
+    r_c = jnp.sqrt(d_o * (2.0 * R - d_o))
+    dy = 2.0 * r_c / n_slices
+    y = k * dy
+    Rc = jnp.sqrt(R * R - y * y)
+    return r_c, dy, y, Rc, d_o - R + Rc
+
+
+def _middle_penetration(slicer, material, layer, R, P, V, *, algorithm, n_slices, k, weights, root_tol,
+                        root_max_steps):
+    """The middle slice's penetration ``d_o``: eq. 7 on the middle slice (eqs. 6-8, the common
+    core), then for SP the total load of all slices set to ``P``; with the root finds'
+    iterations, last residual and convergence."""
+    prep = slicer.prep
     omega = 2.0 * jnp.pi * V / prep.period if prep.period is not None else jnp.zeros_like(V)
     r_h = hertz_sphere(P, R, storage_modulus(material, omega), layer.nu).contact_radius  # eq. 8
     r_h = jnp.minimum(r_h, 0.5 * R)
     d_h = jax.lax.stop_gradient(R - jnp.sqrt(R * R - r_h * r_h))  # eq. 2 inverted
 
-    def core_residual(y):
+    def core_residual(y):  # unknown y = log(d_o / d_H)
         d_o = d_h * jnp.exp(y)
-        p_alg = middle_load(d_o)
-        target = 3.0 * P / (4.0 * contact_radius(d_o))  # eq. 6
-        pos = p_alg > 0.0
-        return jnp.where(pos, jnp.log(jnp.where(pos, p_alg, 1.0) / target), -1e3)
+        p, _ = slicer.pressed(R, d_o, check=False)  # the final solves are checked
+        return _log_ratio(jnp.sum(p) * prep.dx, 3.0 * P / (4.0 * jnp.sqrt(d_o * (2.0 * R - d_o))))  # eq. 6
 
-    y_core, core = newton_root(core_residual, jnp.asarray(0.0), tol=root_tol, max_steps=root_max_steps,
-                               max_step=1.0)
-    it_total, res_last, conv = core.iterations, core.residual, core.converged
-
-    def slice_geometry(d_o):
-        r_c = contact_radius(d_o)
-        dy = 2.0 * r_c / n_slices
-        y = k * dy
-        Rc = jnp.sqrt(R * R - y * y)
-        d_c = d_o - R + Rc  # eq. 9
-        return r_c, dy, y, Rc, d_c
-
+    y_root, core = newton_root(core_residual, jnp.asarray(0.0), tol=root_tol, max_steps=root_max_steps, max_step=1.0)
+    iterations, residual, converged = core.iterations, core.residual, core.converged
     if algorithm == "SP":
-        def total_load(d_o):
-            r_c, dy, y, Rc, d_c = slice_geometry(d_o)
-            p, _ = jax.vmap(lambda a, b: pen_slice(a, b, check=False))(Rc, d_c)
-            return jnp.sum(weights * jnp.sum(p, axis=1)) * dx * dy
+        def total_load_residual(yy):
+            _, dy, _, Rc, d_c = _slice_geometry(R, d_h * jnp.exp(yy), n_slices, k)
+            p, _ = jax.vmap(lambda a, b: slicer.pressed(a, b, check=False))(Rc, d_c)
+            return _log_ratio(jnp.sum(weights * jnp.sum(p, axis=1)) * prep.dx * dy, P)
 
-        def sp_residual(yy):
-            Pc = total_load(d_h * jnp.exp(yy))
-            pos = Pc > 0.0
-            return jnp.where(pos, jnp.log(jnp.where(pos, Pc, 1.0) / P), -1e3)
+        y_root, sp = newton_root(total_load_residual, jax.lax.stop_gradient(y_root), tol=root_tol,
+                                 max_steps=root_max_steps, max_step=1.0)
+        iterations, residual, converged = iterations + sp.iterations, sp.residual, converged & sp.converged
+    return d_h * jnp.exp(y_root), iterations, residual, converged
 
-        y_sp, sp = newton_root(sp_residual, jax.lax.stop_gradient(y_core), tol=root_tol,
-                               max_steps=root_max_steps, max_step=1.0)
-        it_total, res_last, conv = it_total + sp.iterations, sp.residual, conv & sp.converged
-        d_o = d_h * jnp.exp(y_sp)
-    else:
-        d_o = d_h * jnp.exp(y_core)
 
-    r_c, dy, y, Rc, d_c = slice_geometry(d_o)
+def _solve_case(prep: _Prepared, material, layer, R, P, V, *, algorithm, n_slices, linear_solver, tol=1e-10,
+                max_steps=60, root_tol=1e-10, root_max_steps=40) -> SliceSolution:
+    """One sphere (load ``P``, speed ``V``) on prepared per-speed data; never raises."""
+    slicer = _Slicer(prep, linear_solver, tol, max_steps)
+    m = (n_slices + 1) // 2
+    k = jnp.arange(m, dtype=float)
+    weights = jnp.where(k > 0, 2.0, 1.0)  # symmetry: slices +-y_k
+    d_o, it_total, res_last, conv = _middle_penetration(
+        slicer, material, layer, R, P, V, algorithm=algorithm, n_slices=n_slices, k=k, weights=weights,
+        root_tol=root_tol, root_max_steps=root_max_steps)
+
+    r_c, dy, y, Rc, d_c = _slice_geometry(R, d_o, n_slices, k)
     if algorithm == "PP":
         # eq. 10 integrated over each slice / dy: sums to P exactly
         r2 = r_c * r_c
         loads = 0.75 * P * (r2 - y * y - dy * dy / 12.0) / (r2 * r_c)
-
-        def load_slice(Rc_k, P_k):
-            # initial contact set: the stationary 2D half-width of the slice (as the cylinder)
-            a_k = estimate_contact_size(material, layer, Rc_k, P_k, "cylinder")
-            init = jnp.abs(x) < jnp.maximum(a_k, dx)
-            if isinstance(linear_solver, Interval):
-                first = jnp.argmax(init)
-                n0 = jnp.sum(init.astype(int))
-                p_k, d_k, st_k, _, _ = solve_interval(prep.op, Rc_k, P_k, mode="load", initial=(first, n0),
-                                                      max_steps=max_steps)
-                return p_k, st_k, d_k
-            s = _contact.solve_contact(prep.kernel.compliance, x * x / (2.0 * Rc_k), P_k, dx, initial_contact=init,
-                                       tol=tol, max_steps=max_steps, linear_solver=linear_solver)
-            return s.pressure, s.result, s.penetration
-
-        p, st, pen = jax.vmap(load_slice)(Rc, loads)
+        p, st, pen = jax.vmap(lambda Rc_k, P_k: slicer.loaded(Rc_k, P_k, material, layer))(Rc, loads)
     else:
-        p, st = jax.vmap(pen_slice)(Rc, d_c)
+        p, st = jax.vmap(slicer.pressed)(Rc, d_c)
         pen = d_c
-    Pc, Rr, Rr_d = jax.vmap(slice_outputs)(Rc, p)
+    Pc, Rr, Rr_d = jax.vmap(slicer.outputs)(Rc, p)
     result = merge_results(jnp.max(st), first_failure((~conv, RESULTS.root_find_failed)))
+    x = prep.x
     return SliceSolution(
         resistance=jnp.sum(weights * Rr) * dy,
         resistance_dissipation=jnp.sum(weights * Rr_d) * dy,
