@@ -95,6 +95,7 @@ def test_reader_variants(tmp_path):
     ("f,E_stor,E_loss\nHz,MPa,MPa\n0.1,1,1\n", r"no column for \['temperature'\]"),
     ("f,E_stor,E_loss,T\nHz,bar,MPa,C\n0.1,1,1,20\n", "unit 'bar' of column 'E_stor'"),
     ("f,E_stor,E_loss,T,Set\nHz,MPa,MPa,C,-\n0.1,1,1,,0\n", "line 3: set 0 has no temperature"),
+    ("f,E_stor,E_loss,T\nHz,MPa,MPa,C\n1e-300,1,1,20\n", "line 3: frequency 1e-300 Hz lies outside 1e-08..1e"),
 ])
 def test_reader_errors_name_line_and_column(tmp_path, content, match):
     p = tmp_path / "bad.csv"
@@ -105,9 +106,97 @@ def test_reader_errors_name_line_and_column(tmp_path, content, match):
 
 def test_reader_warns_about_unused_columns(tmp_path):
     p = tmp_path / "x.csv"
-    p.write_text("f,E_stor,E_loss,T,tan_delta\nHz,MPa,MPa,C,-\n0.1,1,1,20,1\n1,2,1,20,0.5\n")
-    with pytest.warns(DataWarning, match="tan_delta"):
+    p.write_text("f,E_stor,E_loss,T,strain\nHz,MPa,MPa,C,-\n0.1,1,1,20,1\n1,2,1,20,0.5\n")
+    with pytest.warns(DataWarning, match="strain"):
         jr.read_dma_sweeps(p)
+
+
+# ------------------------------------------------------------------------ instrument layouts
+
+LAYOUTS = Path(__file__).resolve().parent / "data"  # written by tests/data/make_layouts.py
+LAYOUT_SETS = (0, 7, 12, 20)  # the shipped sets in those files
+
+
+def _shipped_sets():
+    raw = np.genfromtxt(DATA, delimiter=",", skip_header=2)  # independent parse: f, E', E'', T, Set
+    return np.concatenate([raw[raw[:, 4] == s] for s in LAYOUT_SETS])
+
+
+@pytest.mark.parametrize("name, source, title_T", [
+    ("eplexor_exported_data.csv", "tension, nu = 0.5", False),   # cp1252, ';', decimal comma, |E*|, tan delta, ---
+    ("trios_frequency_sweeps.txt", "shear", True),               # [step] segments, T in the step name
+    ("rheocompass_intervals.txt", "shear", False),               # UTF-16, decimal comma, Interval data blocks
+])
+def test_instrument_layouts_read_the_shipped_numbers(name, source, title_T):
+    """Each layout holds four of the shipped sets (tension in MPa; the rheometers as G = E/3 in
+    Pa and rad/s, 10 significant digits): the sweeps equal the shipped file's values."""
+    raw = _shipped_sets()
+    sw = jr.read_dma_sweeps(LAYOUTS / name)
+    assert sw.source == source and sw.n_sets == 4 and len(sw.omega) == 40
+    np.testing.assert_allclose(sw.omega, 2 * np.pi * raw[:, 0], rtol=1e-9)
+    np.testing.assert_allclose(sw.storage, raw[:, 1] * 1e6 / 3, rtol=1e-9)
+    np.testing.assert_allclose(sw.loss, raw[:, 2] * 1e6 / 3, rtol=1e-9)
+    np.testing.assert_array_equal(sw.set, np.repeat(np.arange(4), 10))
+    want = [raw[raw[:, 4] == s, 3].mean() + 273.15 for s in LAYOUT_SETS]
+    # TRIOS: the step name gives the set's temperature to 0.1 degC (Frequency sweep (2.5 °C))
+    np.testing.assert_allclose(sw.set_temperature, want, atol=0.05 if title_T else 1e-9)
+
+
+def test_eplexor_polar_moduli_convert_to_storage_and_loss(tmp_path):
+    """|E*| and tan delta alone give E' = |E*| / sqrt(1 + tan^2), E'' = E' tan (here E' = 3, E'' = 4
+    MPa from |E*| = 5, tan = 4/3): the 3-4-5 triangle."""
+    p = tmp_path / "polar.csv"
+    p.write_text("Set,T,f,|E*|,tan delta\n,°C,Hz,MPa,-\n0,20,1,5,1.3333333333333333\n0,20,10,5,1.3333333333333333\n"
+                 "1,40,1,5,1.3333333333333333\n1,40,10,---,1\n")
+    with pytest.warns(DataWarning, match=r"1 row\(s\) with a missing frequency or modulus skipped \(lines 6\)"):
+        sw = jr.read_dma_sweeps(p)
+    np.testing.assert_allclose(sw.storage, 1e6, rtol=1e-15)  # 3 MPa / 3
+    np.testing.assert_allclose(sw.loss, 4e6 / 3, rtol=1e-15)
+
+
+def test_eplexor_workbook(tmp_path):
+    """The Eplexor layout as an .xlsx workbook (sheet "Exported Data") reads like its text copy."""
+    openpyxl = pytest.importorskip("openpyxl")
+    text = jr.io.read_rows(LAYOUTS / "eplexor_exported_data.csv")
+    book = openpyxl.Workbook()
+    sheet = book.active
+    sheet.title = "Exported Data"
+    for k, (_, r) in enumerate(text.rows):
+        sheet.append([float(c) if k >= 2 and c.strip() not in ("", "---") else c for c in r])
+    book.save(tmp_path / "eplexor.xlsx")
+    a, b = jr.read_dma_sweeps(tmp_path / "eplexor.xlsx"), jr.read_dma_sweeps(LAYOUTS / "eplexor_exported_data.csv")
+    np.testing.assert_array_equal(a.storage, b.storage)
+    np.testing.assert_array_equal(a.set_temperature, b.set_temperature)
+
+
+@pytest.mark.parametrize("encoding, delimiter, decimal_comma", [
+    ("cp1252", ",", False), ("utf-8", ";", True), ("utf-8-sig", "\t", False), ("utf-16", "\t", True),
+    ("utf-16-le", ";", False)])
+def test_shipped_file_in_other_encodings_delimiters_and_decimal_marks(tmp_path, encoding, delimiter, decimal_comma):
+    """The shipped file rewritten as Windows / spreadsheet exports do (units row 'C' -> '°C')
+    reads to exactly the same sweeps."""
+    text = DATA.read_text(encoding="utf-8-sig").replace(" C,", " °C,").replace(",", delimiter)
+    if decimal_comma:
+        text = text.replace(".", ",")
+    p = tmp_path / "x.csv"
+    p.write_bytes(text.replace("\n", "\r\n").encode(encoding))
+    a, b = jr.read_dma_sweeps(p), jr.read_dma_sweeps(DATA)
+    for name in ("omega", "storage", "loss", "temperature", "set", "set_temperature"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+@pytest.mark.parametrize("content, match", [
+    (b"hello world\nthis is not a table\n", r"no DMA table found \(read as UTF-8, comma-separated; it begins "
+                                            r"\['hello world', 'this is not a table'\]\); expected a header row"),
+    ("Zeit;Kraft\ns;N\n1,5;2\n".encode("cp1252"), r"no DMA table found \(read as cp1252|no DMA table found \(read as UTF-8"),
+    (b"\x00\x01\x02garbage\xff\xfe", r"no DMA table found"),
+])
+def test_unknown_layout_fails_in_one_line(tmp_path, content, match):
+    p = tmp_path / "x.dat"
+    p.write_bytes(content)
+    with pytest.raises(ValueError, match=match) as err:
+        jr.read_dma_sweeps(p)
+    assert "\n" not in str(err.value)
 
 
 # ------------------------------------------------------------------------------ shift factors, WLF
@@ -355,6 +444,14 @@ def test_load_material_rejects_other_files(tmp_path):
         jr.load_material(tmp_path / "x.json")
     with pytest.raises(ValueError, match="use a .json or .csv"):
         jr.load_material(tmp_path / "x.txt")
+    for text, match in (('{"material": "GeneralizedMaxwell", "G_inf": 1, "G": [1]}', r"has no \['tau'\]"),
+                        ('{"material": "GeneralizedMaxwell", "G_inf": 1, "G": [1], "tau": [1, 2]}', "one length"),
+                        ('{"material": "GeneralizedMaxwell", "G_inf": 1, "G": [1], "tau": [1], "shift": {"law": "WLF"}}',
+                         "the shift law needs"),
+                        ("{not json", "not a JSON file")):
+        (tmp_path / "x.json").write_text(text)
+        with pytest.raises(ValueError, match=match):
+            jr.load_material(tmp_path / "x.json")
 
 
 # ---------------------------------------------------------------------------------------- the shipped data

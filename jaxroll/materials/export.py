@@ -84,10 +84,26 @@ def load_material(path):
     """Load what :func:`save_material` wrote: ``(GeneralizedMaxwell, shift or None)``."""
     path = Path(path)
     if path.suffix.lower() == ".json":
-        d = json.loads(path.read_text())
-        if d.get("material") != "GeneralizedMaxwell":
+        try:
+            d = json.loads(path.read_text())
+        except (UnicodeDecodeError, json.JSONDecodeError) as e:
+            raise ValueError(f"{path}: not a JSON file ({e})") from None
+        if not isinstance(d, dict) or d.get("material") != "GeneralizedMaxwell":
             raise ValueError(f"{path}: not a jaxroll material file (no 'material': 'GeneralizedMaxwell')")
-        mat = GeneralizedMaxwell(G_inf=d["G_inf"], G=np.asarray(d["G"], float), tau=np.asarray(d["tau"], float))
+        missing = [k for k in ("G_inf", "G", "tau") if k not in d]
+        if missing:
+            raise ValueError(f"{path}: the material has no {missing}; a GeneralizedMaxwell needs 'G_inf' [Pa], "
+                             "'G' [Pa] and 'tau' [s] (lists of one length)")
+        try:
+            G, tau = np.asarray(d["G"], float).ravel(), np.asarray(d["tau"], float).ravel()
+            G_inf = float(d["G_inf"])
+        except (TypeError, ValueError):
+            raise ValueError(f"{path}: 'G_inf', 'G' and 'tau' must be numbers (lists for G and tau)") from None
+        if len(G) != len(tau) or not (np.all(np.isfinite(G) & (G > 0)) and np.all(np.isfinite(tau) & (tau > 0))
+                                      and math.isfinite(G_inf) and G_inf >= 0):
+            raise ValueError(f"{path}: 'G' and 'tau' need one length and finite positive values, 'G_inf' >= 0; got "
+                             f"{len(G)} G and {len(tau)} tau")
+        mat = GeneralizedMaxwell(G_inf=G_inf, G=G, tau=tau)
         s = d.get("shift")
     elif path.suffix.lower() == ".csv":
         t = read_table(path, [Column("tau", UNITS["time"], positive=True, finite=False),
@@ -100,6 +116,11 @@ def load_material(path):
         raise ValueError(f"load_material: {path.name}: use a .json or .csv file")
     shift = None
     if s is not None:
-        shift = (WLF(C1=s["C1"], C2=s["C2"], T_ref=s["T_ref"]) if s["law"] == "WLF"
+        need = {"WLF": ("C1", "C2", "T_ref"), "Arrhenius": ("activation_energy", "T_ref")}
+        law = s.get("law") if isinstance(s, dict) else None
+        if law not in need or any(k not in s for k in need[law]):
+            raise ValueError(f"{path}: the shift law needs 'law': 'WLF' with C1, C2 [K], T_ref [K], or 'Arrhenius' "
+                             f"with activation_energy [J/mol], T_ref [K]; got {s}")
+        shift = (WLF(C1=s["C1"], C2=s["C2"], T_ref=s["T_ref"]) if law == "WLF"
                  else Arrhenius(activation_energy=s["activation_energy"], T_ref=s["T_ref"]))
     return mat, shift

@@ -103,7 +103,7 @@ def fit_prony(master: MasterCurve, *, n_terms=None, refine=True, weights=None) -
     from scipy.optimize import nnls
 
     w, gs, gl = master.omega, master.storage, master.loss
-    lo, hi = math.log10(1.0 / w.max()), math.log10(1.0 / w.min())
+    lo, hi = -math.log10(w.max()), -math.log10(w.min())  # logs first: 1/omega overflows below 1e-308
     n = int(n_terms) if n_terms is not None else int(math.ceil(hi - lo)) + 1
     if n < 1:
         raise ValueError(f"n_terms must be >= 1; got {n_terms}")

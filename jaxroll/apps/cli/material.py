@@ -104,12 +104,13 @@ def add_parser(sub) -> None:
         "material", help="raw multi-temperature DMA -> shift factors, WLF, master curve, Prony series, exports",
         description="Read frequency sweeps at several temperatures (CSV: a header row of names, e.g. f, E_stor, "
         "E_loss, T[, Set] or f, G_stor, G_loss, T, then a units row or units in the names: Hz|rad/s, "
-        "Pa|kPa|MPa|GPa, C|K), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
+        "Pa|kPa|MPa|GPa, C|K; any of UTF-8/UTF-16/cp1252, comma/semicolon/tab, decimal comma; Eplexor, TA TRIOS "
+        "and Anton Paar RheoCompass exports; .xls/.xlsx with jaxroll[excel]; see docs/dma.md), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
         "curve at the reference temperature and fit a Prony series to it. Writes material.json and material.csv "
         "(for jaxroll map), material_abaqus.inp (*VISCOELASTIC, TIME=PRONY; *TRS WLF), material_ansys.mac "
         "(TB,PRONY; TB,SHIFT WLF), shift_factors.csv, master_curve.csv, master_curve.png, shift_factors.png and "
         "material_report.txt into --out. Units SI (Pa, s, K).")
-    mt.add_argument("dma", help="DMA CSV (frequency sweeps at several temperatures)")
+    mt.add_argument("dma", help="DMA file (frequency sweeps at several temperatures)")
     mt.add_argument("--poisson", type=poisson("--poisson"), default=0.5,
                     help="Poisson's ratio converting tensile moduli E to shear, G = E / (2 (1 + nu)); unused for "
                     "shear data (0.5)")
