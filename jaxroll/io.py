@@ -510,8 +510,9 @@ def _convert(path, body, j, label, spec, unit, conv):
             raise ValueError(f"{path}, line {line}: {label} is {text!r}; values must be finite")
         v = v * scale + offset
         if spec.positive and not v > 0:
-            what = "above absolute zero" if offset else "positive"
-            raise ValueError(f"{path}, line {line}: {label} must be {what}, got {text} {unit or ''}".rstrip())
+            what = "above absolute zero" if offset or unit == "K" else "positive"
+            hint = " (degC labelled K?)" if unit == "K" else ""
+            raise ValueError(f"{path}, line {line}: {label} must be {what}, got {text} {unit or ''}".rstrip() + hint)
         values[k] = v
     return values
 

@@ -5,6 +5,7 @@ Prony series and KNOWN WLF constants (the fit must recover them), exact round tr
 exports, and pyvisco (the peer, skipped when not installed) on the shipped file."""
 
 import math
+import re
 import warnings
 from pathlib import Path
 
@@ -106,7 +107,7 @@ def test_reader_errors_name_line_and_column(tmp_path, content, match):
 
 def test_reader_warns_about_unused_columns(tmp_path):
     p = tmp_path / "x.csv"
-    p.write_text("f,E_stor,E_loss,T,strain\nHz,MPa,MPa,C,-\n0.1,1,1,20,1\n1,2,1,20,0.5\n")
+    p.write_text("f,E_stor,E_loss,T,strain\nHz,MPa,MPa,C,-\n0.1,1,1,20,1\n1,2,1,20,0.5\n10,3,1,20,0.5\n")
     with pytest.warns(DataWarning, match="strain"):
         jr.read_dma_sweeps(p)
 
@@ -146,9 +147,9 @@ def test_eplexor_polar_moduli_convert_to_storage_and_loss(tmp_path):
     """|E*| and tan delta alone give E' = |E*| / sqrt(1 + tan^2), E'' = E' tan (here E' = 3, E'' = 4
     MPa from |E*| = 5, tan = 4/3): the 3-4-5 triangle."""
     p = tmp_path / "polar.csv"
-    p.write_text("Set,T,f,|E*|,tan delta\n,°C,Hz,MPa,-\n0,20,1,5,1.3333333333333333\n0,20,10,5,1.3333333333333333\n"
-                 "1,40,1,5,1.3333333333333333\n1,40,10,---,1\n")
-    with pytest.warns(DataWarning, match=r"1 row\(s\) with a missing frequency or modulus skipped \(lines 6\)"):
+    rows = "".join(f"{s},{T},{f},5,1.3333333333333333\n" for s, T in ((0, 20), (1, 40)) for f in (1, 10, 100))
+    p.write_text("Set,T,f,|E*|,tan delta\n,°C,Hz,MPa,-\n" + rows + "1,40,1000,---,1\n")
+    with pytest.warns(DataWarning, match=r"1 row\(s\) with a missing frequency or modulus skipped \(lines 9\)"):
         sw = jr.read_dma_sweeps(p)
     np.testing.assert_allclose(sw.storage, 1e6, rtol=1e-15)  # 3 MPa / 3
     np.testing.assert_allclose(sw.loss, 4e6 / 3, rtol=1e-15)
@@ -197,6 +198,96 @@ def test_unknown_layout_fails_in_one_line(tmp_path, content, match):
     with pytest.raises(ValueError, match=match) as err:
         jr.read_dma_sweeps(p)
     assert "\n" not in str(err.value)
+
+
+# ------------------------------------------------------------------------ plausibility checks
+
+
+def _mutated(tmp_path, change, units=None):
+    """The shipped file with ``change(rows)`` applied to its data rows (lists of floats:
+    f, E', E'', T, Set) and optionally another units row."""
+    lines = DATA.read_text(encoding="utf-8-sig").splitlines()
+    rows = [[float(c) for c in line.split(",")] for line in lines[2:]]
+    rows = change(rows) or rows
+    p = tmp_path / "mutated.csv"
+    p.write_text("\n".join([lines[0], units or lines[1]] + [",".join(repr(v) for v in r) for r in rows]) + "\n")
+    return p
+
+
+def _scale_set(s, k):
+    def change(rows):
+        for r in rows:
+            if r[4] == s:
+                r[1] *= k
+                r[2] *= k
+    return change
+
+
+def _swap(rows):
+    for r in rows:
+        r[1], r[2] = r[2], r[1]
+
+
+def _reverse_frequencies(rows):
+    for s in range(21):
+        idx = [i for i, r in enumerate(rows) if r[4] == s]
+        f = [rows[i][0] for i in idx][::-1]
+        for i, v in zip(idx, f):
+            rows[i][0] = v
+
+
+def _all_one_frequency(rows):
+    for r in rows:
+        r[0] = 1.0
+
+
+def _close_sets(rows):
+    T10 = float(np.mean([r[3] for r in rows if r[4] == 10]))
+    for r in rows:
+        if r[4] == 11:
+            r[3] = T10 + 0.05
+
+
+def _loss_times(k):
+    def change(rows):
+        for r in rows:
+            r[2] = r[1] * k
+    return change
+
+
+@pytest.mark.parametrize("change, units, match", [
+    (_scale_set(10, 1e-6), None, r"set 10 \(24\.98 degC\): the storage modulus is -6\.0 decades off its neighbours "
+                                 r"\(10\^-6: a unit slip such as Pa under an MPa header\?\)"),
+    (_scale_set(0, 1e3), None, r"set 0 \(-49\.91 degC\): the storage modulus is \+3\.0 decades off"),
+    (lambda rows: [r[:0] + [r[0] * 2 * math.pi] + r[1:] for r in rows], None, r"2 pi times round values: are they "
+                                                                               r"rad/s labelled Hz"),
+    (lambda rows: [r for r in rows if r[4] >= 7], " Hz, MPa, MPa, K, -", r"are they degC labelled K\?"),
+    (_swap, None, r"set 0 \(-49\.91 degC\): loss above storage on the glassy plateau at 10 of 10 points .*swapped"),
+    (_reverse_frequencies, None, r"storage falls with frequency in 13 of 21 sets \(set 8 \(9\.95 degC\), "),
+    (_all_one_frequency, None, r"set 0 \(-49\.91 degC\) has 1 distinct frequency \(lines 3, 4, 5"),
+    (lambda rows: rows[:47] + [list(rows[47])] + rows[47:], None, r"1 repeated row\(s\) \(lines 51\)"),
+    (_close_sets, None, r"set 10 \(24\.98 degC\) and set 11 \(25\.03 degC\) are 0\.05 K apart"),
+    (_loss_times(1e9), None, r"above 1e\+11 Pa no polymer is that stiff"),
+])
+def test_mutated_shipped_data_is_named(tmp_path, change, units, match):
+    """Each mutation of the shipped file that the issue found fitted silently gets a warning
+    that names the set and the fix."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        jr.read_dma_sweeps(_mutated(tmp_path, change, units))
+    messages = [str(w.message) for w in caught]
+    assert all(w.category is DataWarning for w in caught) and any(re.search(match, m) for m in messages), messages
+
+
+def test_negative_kelvin_hints_at_degc(tmp_path):
+    with pytest.raises(ValueError, match=r"line 3: T must be above absolute zero, got -49\.9612 K \(degC labelled K\?\)"):
+        jr.read_dma_sweeps(_mutated(tmp_path, lambda rows: None, "Hz, MPa, MPa, K, -"))
+
+
+def test_clean_files_raise_no_data_warning():
+    """The shipped files and the layout files pass every check (warnings are errors here)."""
+    for p in (DATA, DATA.parent / "dma_example.csv", *sorted(LAYOUTS.glob("*.csv")), *sorted(LAYOUTS.glob("*.txt"))):
+        jr.read_dma_sweeps(p)
 
 
 # ------------------------------------------------------------------------------ shift factors, WLF
@@ -325,8 +416,10 @@ def test_prony_weights_leave_values_out():
     np.testing.assert_allclose(np.asarray(fit.material.tau), np.asarray(true.tau), rtol=1e-6)
     assert fit.rms < 1e-8 and fit.residuals[7, 1] == pytest.approx(-math.log(100.0), rel=1e-6)
     np.testing.assert_array_equal(fit.weights, weights)
-    plain = jr.fit_prony(master, n_terms=1)
-    assert jr.fit_prony(master, n_terms=1, weights=np.ones((w.size, 2))).rms == plain.rms and plain.rms > 0.1
+    with warnings.catch_warnings():  # one term, one outlier: its rms (~0.5) sits at MAX_PRONY_RMS's warning
+        warnings.simplefilter("ignore", DataWarning)
+        plain = jr.fit_prony(master, n_terms=1)
+        assert jr.fit_prony(master, n_terms=1, weights=np.ones((w.size, 2))).rms == plain.rms and plain.rms > 0.1
     for bad in (np.ones((w.size, 1)), -weights):
         with pytest.raises(ValueError, match="weights must be finite, >= 0"):
             jr.fit_prony(master, weights=bad)
@@ -455,6 +548,82 @@ def test_load_material_rejects_other_files(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------- the shipped data
+
+
+def _warned(fn, *args, **kwargs):
+    """``(fn(...), messages)``: every warning ``fn`` issues must be a DataWarning."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fn(*args, **kwargs)
+    assert all(w.category is DataWarning for w in caught), [str(w.message) for w in caught]
+    return out, [str(w.message) for w in caught]
+
+
+def _shifts(T, log_a, ref):
+    """Shift factors given directly (the fits see only these)."""
+    T = np.asarray(T, float)
+    return jr.materials.ShiftFactors(T, np.asarray(log_a, float), np.zeros(len(T)), np.zeros(len(T)), float(T[ref]),
+                                     ref)
+
+
+def test_degenerate_wlf_is_flagged_and_a_fixed_c2_recovers_the_slope():
+    """Shift factors exactly linear in T over 40 K (slope -0.12 decade/K, a little noise): only
+    C1/C2 is determined. The fit says so, and with C2 held the slope C1/C2 comes back."""
+    T = np.arange(293.15, 334.0, 5.0)
+    rng = np.random.default_rng(3)
+    y = -0.12 * (T - T[4]) + 0.01 * rng.standard_normal(len(T))
+    y[4] = 0.0
+    fit, messages = _warned(jr.fit_wlf, _shifts(T, y, 4))
+    assert any(re.search(r"not separately determined .* only the slope C1/C2 = -?0\.1\d* 1/K is known. Hold C2", m)
+               for m in messages), messages
+    assert fit.degenerate and "not separately determined" in fit.notes[0]
+    held = jr.fit_wlf(_shifts(T, y, 4), C2=1e3)  # C2 >> 20 K: the law is the line; C1/C2 its slope
+    assert not held.degenerate and held.interval("C2") == "held fixed" and held.interval("C1").startswith("95 % [")
+    # the WLF line at C2 = 1000 K bends by |dT|/C2 <= 2 %: slope within 2 % (plus the 0.01-decade noise)
+    assert held.params["C1"] / 1e3 == pytest.approx(0.12, rel=0.03)
+
+
+def test_exactly_determined_wlf_has_no_interval():
+    """Three sets, two shift factors for two constants: a WLF curve through them exactly (the
+    values are made by WLF(8.86, 101.6)), with no interval rather than a zero-width one."""
+    law = jr.WLF(C1=8.86, C2=101.6, T_ref=293.15)
+    T = np.array([273.15, 293.15, 313.15])
+    y = np.asarray(law.log_shift(T)) / np.log(10.0)
+    fit = jr.fit_wlf(_shifts(T, y, 1))
+    assert fit.params["C1"] == pytest.approx(8.86, rel=1e-8) and fit.params["C2"] == pytest.approx(101.6, rel=1e-8)
+    assert fit.interval("C1") == fit.interval("C2") == "no interval (exactly determined)"
+    assert any("exactly determined: 2 shift factor(s) for 2 parameter(s)" in n for n in fit.notes)
+
+
+def test_wlf_outside_physical_ranges_and_a_law_that_misses_are_named():
+    """Shifts that grow with temperature give C1 < 0; scattered shifts leave the law more than 0.5
+    decade rms off."""
+    T = np.arange(273.15, 334.0, 10.0)
+    _, messages = _warned(jr.fit_wlf, _shifts(T, 0.1 * (T - T[2]), 2))
+    assert any("outside their physical ranges: C1 = -" in m for m in messages), messages
+    y = np.array([3.0, 0.0, 0.0, -3.0, 0.0, -3.0, -1.0])  # sawtooth: no law fits
+    fit = jr.materials.fit_arrhenius(_shifts(T, y, 1))
+    assert fit.rms > 0.5 and any("misses the shift factors by" in n for n in fit.notes)
+
+
+def test_prony_rms_above_threshold_warns():
+    """A master curve whose every other point is 10^3 higher (a unit slip in every second set)
+    cannot be one series: the rms log residual exceeds MAX_PRONY_RMS and the fit says so."""
+    w = np.logspace(-2, 2, 20)
+    gs, gl = (np.asarray(f(TRUE_MAT, w)) for f in (jr.materials.storage_modulus, jr.materials.loss_modulus))
+    k = np.where(np.arange(20) % 2, 1e3, 1.0)
+    master = jr.materials.MasterCurve(w, gs * k, gl * k, np.zeros(20, int), 293.15)
+    with pytest.warns(DataWarning, match=r"misses the master curve by an rms log residual of .* \(more than 0\.5"):
+        pf = jr.fit_prony(master, refine=False)
+    # half the points 3 decades (6.9 in ln) off: no series comes within 0.5 of both halves
+    assert pf.rms > jr.materials.prony.MAX_PRONY_RMS
+
+
+def test_shift_needs_three_distinct_frequencies_per_set():
+    sw = jr.materials.DMASweeps(np.ones(6), np.ones(6), np.ones(6), np.repeat([280.0, 300.0], 3),
+                                np.repeat([0, 1], 3), np.array([280.0, 300.0]))
+    with pytest.raises(ValueError, match="set 0 .* has 1 distinct frequencies; at least 3"):
+        jr.fit_shift_factors(sw)
 
 
 @pytest.fixture(scope="module")

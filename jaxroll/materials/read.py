@@ -30,6 +30,7 @@ class DMASweeps:
             temperature.
         set_temperature: mean temperature of each set [K], increasing.
         source: how the moduli were obtained (``"shear"`` or ``"tension, nu = 0.5"``).
+        line: the file line of each row (for messages), or None.
     """
 
     omega: np.ndarray
@@ -39,6 +40,7 @@ class DMASweeps:
     set: np.ndarray
     set_temperature: np.ndarray
     source: str = "shear"
+    line: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.omega)
@@ -175,10 +177,11 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     mode = modes.pop() if modes else "G"
     parts = []
     for b, (title, t) in enumerate(blocks):
-        has_pair = f"{mode}_storage" in t and (f"{mode}_loss" in t or "tan_delta" in t)
-        has_polar = f"{mode}_complex" in t and "tan_delta" in t
+        tan, polar = "tan_delta" in t, f"{mode}_complex" in t
+        has_storage = f"{mode}_storage" in t or (polar and tan)
+        has_loss = f"{mode}_loss" in t or (tan and has_storage)
         title_T = _TITLE_TEMPERATURE.search(title)
-        missing = [r for r, ok in (("frequency", "frequency" in t), ("storage and loss", has_pair or has_polar),
+        missing = [r for r, ok in (("frequency", "frequency" in t), ("storage", has_storage), ("loss", has_loss),
                                    ("temperature", "temperature" in t or title_T)) if not ok]
         if missing:
             where = f", line {t.lines[0] - 1}" if len(blocks) > 1 else ""
@@ -238,7 +241,12 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     source = f"tension, nu = {poisson:g}" if mode == "E" else "shear"
-    return DMASweeps(omega, storage, loss, T, rank[labels], set_T[order], source)
+    sweeps = DMASweeps(omega, storage, loss, T, rank[labels], set_T[order], source, lines)
+    from .checks import check_sweeps
+
+    for message in check_sweeps(sweeps):
+        warnings.warn(f"{path}: {message}", DataWarning, stacklevel=2)
+    return sweeps
 
 
 def _line_list(lines, n=8):
