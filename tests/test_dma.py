@@ -729,3 +729,17 @@ def test_resistance_map_values_and_gradients(tmp_path, geometry, load):
     m.write_csv(tmp_path / "map.csv")
     table = np.genfromtxt(tmp_path / "map.csv", delimiter=",", skip_header=2)
     np.testing.assert_allclose(table[:, 2].reshape(2, 2), m.value, rtol=1e-7)
+
+
+def test_resistance_map_flags_temperatures_outside_the_measured_range():
+    """Points outside the measured range keep their value (the shift law extrapolated) but are not
+    valid, with their own RESULTS reason; the range's ends are inside."""
+    mat = jr.StandardLinearSolid(G0=3e6, tau=0.25, f=1.0).to_prony()
+    wlf = jr.WLF(C1=8.86, C2=101.6, T_ref=293.15)
+    Ts = np.array([250.0, 283.15, 303.15, 500.0])
+    m = jr.resistance_map(mat, wlf, jr.Layer(H=0.01), radius=0.01, load=500.0, temperatures=Ts, speeds=[1e-2],
+                          geometry="cylinder", measured_temperatures=(283.15, 303.15))
+    assert m.valid[:, 0].tolist() == [False, True, True, False]
+    assert [jr.RESULTS.names[c] for c in m.result[:, 0]] == ["outside_measured_temperatures", "successful",
+                                                             "successful", "outside_measured_temperatures"]
+    assert np.all(np.isfinite(m.value))

@@ -30,6 +30,7 @@ from .material import (
     tan_delta,
 )
 from .read import DMASweeps, read_dma_sweeps
+from .checks import check_sweeps
 from .shift import MasterCurve, ShiftFactors, ShiftFit, fit_arrhenius, fit_shift_factors, fit_wlf, loss_artifacts, master_curve
 from .prony import PronyFit, fit_prony, prony_moduli
 from .export import load_material, save_material, write_abaqus, write_ansys
@@ -38,7 +39,7 @@ __all__ = [
     "GAS_CONSTANT", "AbstractMaterial", "AbstractShift", "Arrhenius", "AtTemperature", "GeneralizedMaxwell",
     "StandardLinearSolid", "WLF", "at_temperature", "complex_modulus", "glassy_modulus", "loss_modulus",
     "relaxation_modulus", "relaxed_modulus", "shift_factor", "storage_modulus", "tan_delta",
-    "DMASweeps", "read_dma_sweeps",
+    "DMASweeps", "read_dma_sweeps", "check_sweeps",
     "MasterCurve", "ShiftFactors", "ShiftFit", "fit_arrhenius", "fit_shift_factors", "fit_wlf", "loss_artifacts",
     "master_curve",
     "PronyFit", "fit_prony", "prony_moduli",
