@@ -401,6 +401,22 @@ def test_end_to_end_synthetic_master_curve_matches_known_material(synthetic):
     assert fit.rms < 0.05
 
 
+def test_prony_jacobian_closed_form_matches_forward_mode():
+    """The refinement's closed-form Jacobian equals jax.jacfwd of the residual (rounding only)."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxroll.materials import prony
+
+    rng = np.random.default_rng(4)
+    n = 7
+    p = jnp.asarray(rng.normal(size=2 * n + 1))
+    args = (jnp.asarray(np.linspace(-5.0, 12.0, 30)), jnp.asarray(rng.normal(size=30)), jnp.asarray(rng.normal(size=30)),
+            jnp.asarray([-15.0, 8.0]), jnp.asarray(rng.uniform(0.0, 1.0, 60)))
+    want = np.asarray(jax.jacfwd(prony._prony_residuals)(p, *args))
+    np.testing.assert_allclose(np.asarray(prony._prony_jacobian(p, *args)), want, rtol=1e-12, atol=1e-14 * np.abs(want).max())
+
+
 def test_prony_weights_leave_values_out():
     """A loss value 100 x off with weight 0 does not move the one-term fit (exact recovery);
     unit weights are the default; a wrong shape or a negative weight is refused."""

@@ -110,9 +110,23 @@ def _pair_residuals(d, xa, Ya, ca, xb, Yb, cb, noise, margin):
     return np.concatenate([rb.ravel(), ra.ravel()]), float(wa.sum() + wb.sum())
 
 
-def _huber_cost(r, c=2.5):
+def _huber_cost(r, c=2.5, axis=None):
     a = np.abs(r)
-    return float(np.sum(np.where(a <= c, 0.5 * a**2, c * (a - 0.5 * c))))
+    return np.sum(np.where(a <= c, 0.5 * a**2, c * (a - 0.5 * c)), axis=axis)
+
+
+def _scan_costs(grid, xa, Ya, ca, xb, Yb, cb, noise, margin, min_weight):
+    """The cost of :func:`_shift_onto` at every shift of ``grid`` at once (the same formula as
+    :func:`_pair_residuals` and :func:`_huber_cost`, broadcast over the grid)."""
+    D = grid[:, None]
+    wb = _taper(xb[None, :] + D, ca.lo, ca.hi, margin)
+    wa = _taper(xa[None, :] - D, cb.lo, cb.hi, margin)
+    rb = (Yb[None] - ca(xb[None, :] + D)) / noise * np.sqrt(wb[..., None] * cb.weight[None])
+    ra = (Ya[None] - cb(xa[None, :] - D)) / noise * np.sqrt(wa[..., None] * ca.weight[None])
+    hub = _huber_cost(rb, axis=(1, 2)) + _huber_cost(ra, axis=(1, 2))
+    weight = wa.sum(axis=1) + wb.sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(weight >= min_weight, hub / weight, np.inf)
 
 
 def _shift_onto(xa, Ya, ca, xb, Yb, cb, noise, margin=0.5, min_weight=3.0):
@@ -122,10 +136,10 @@ def _shift_onto(xa, Ya, ca, xb, Yb, cb, noise, margin=0.5, min_weight=3.0):
 
     def cost(d):
         r, weight = _pair_residuals(d, xa, Ya, ca, xb, Yb, cb, noise, margin)
-        return _huber_cost(r) / weight if weight >= min_weight else np.inf
+        return float(_huber_cost(r)) / weight if weight >= min_weight else np.inf
 
     grid = np.arange(lo, hi + 1e-9, 0.01)
-    costs = np.array([cost(d) for d in grid])
+    costs = _scan_costs(grid, xa, Ya, ca, xb, Yb, cb, noise, margin, min_weight)
     if not np.any(np.isfinite(costs)):
         raise ValueError("two neighbouring temperature sets are too short to be shifted onto each other (fewer "
                          "than 3 overlapping points even with half a decade of extrapolation)")
