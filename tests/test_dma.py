@@ -759,3 +759,26 @@ def test_resistance_map_flags_temperatures_outside_the_measured_range():
     assert [jr.RESULTS.names[c] for c in m.result[:, 0]] == ["outside_measured_temperatures", "successful",
                                                              "successful", "outside_measured_temperatures"]
     assert np.all(np.isfinite(m.value))
+
+
+@pytest.mark.parametrize("writer, suffix", [("write_abaqus", ".inp"), ("write_ansys", ".mac")])
+def test_fe_decks_read_back_and_leave_out_negligible_terms(tmp_path, writer, suffix):
+    """A deck read back gives the series written (10 significant digits); a term below 1e-6 of
+    G_0 is left out of the deck, with a comment, and its modulus moves to G_inf (G_0 kept)."""
+    G = np.array([3.5e6, 2.5e-8, 1.1e7, 2.2e8, 4.0e7, 9.0e6, 1.0e6])  # 7 terms: two TBDATA lines in ANSYS
+    tau = np.array([1e-6, 1e-4, 3e-3, 7.5, 30.0, 1e3, 1e5])
+    mat, wlf = jr.GeneralizedMaxwell(G_inf=1.25e6, G=G, tau=tau), jr.WLF(C1=9.1, C2=105.3, T_ref=298.15)
+    p = tmp_path / f"m{suffix}"
+    getattr(jr.materials, writer)(mat, p, shift=wlf, poisson=0.45)
+    assert "1 term(s) with g_i < 1e-06 left out" in p.read_text()
+    back, shift = jr.load_material(p)
+    keep = G > 1.0
+    np.testing.assert_allclose(np.asarray(back.G), G[keep], rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(back.tau), tau[keep], rtol=1e-9)
+    G0 = 1.25e6 + G.sum()
+    assert math.isclose(float(back.glassy_modulus()), G0, rel_tol=1e-9)
+    assert math.isclose(float(back.G_inf), 1.25e6 + 2.5e-8, rel_tol=1e-6)  # G_inf = G_0 (1 - sum g_i kept)
+    assert (shift.C1, shift.C2, shift.T_ref) == (9.1, 105.3, 298.15)
+    (tmp_path / "bad.inp").write_text("*MATERIAL, NAME=X\n*ELASTIC\n1e9, 0.3\n")
+    with pytest.raises(ValueError, match="neither an Abaqus deck"):
+        jr.load_material(tmp_path / "bad.inp")
