@@ -397,8 +397,10 @@ def read_blocks(path, columns: Sequence[Column], *, min_names=2, kind="data", ca
     heads = []
     for k, (_, r) in enumerate(rows):
         cells = [h.strip() for h in r]
+        if any(_is_number(c) for c in cells if c):  # a data row (fast path: most rows)
+            continue
         found = {norm(n) for n in next(iter(_header_names(cells, columns, case_sensitive)), ())} & names
-        if len(found) >= min_names and not any(_is_number(c) for c in cells if c):
+        if len(found) >= min_names:
             heads.append(k)
     blocks, prev_end = [], 0
     for n, k in enumerate(heads):
@@ -495,7 +497,13 @@ def _convert(path, body, j, label, spec, unit, conv):
     """The SI values of column ``j`` (``nan`` for allowed blanks and missing marks such as
     ``---``); errors name the line."""
     scale, offset = conv
-    values = np.full(len(body), np.nan)
+    try:  # fast path: every cell a finite number
+        v = np.array([r[j] if j < len(r) else "" for _, r in body], dtype=float) * scale + offset
+        if np.all(np.isfinite(v)) and (not spec.positive or np.all(v > 0)):
+            return v
+    except ValueError:
+        pass
+    values = np.full(len(body), np.nan)  # the slow path finds the blanks and names what is wrong
     for k, (line, r) in enumerate(body):
         text = r[j].strip() if j < len(r) else ""
         if text.lower() in MISSING:

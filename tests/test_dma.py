@@ -417,6 +417,26 @@ def test_prony_jacobian_closed_form_matches_forward_mode():
     np.testing.assert_allclose(np.asarray(prony._prony_jacobian(p, *args)), want, rtol=1e-12, atol=1e-14 * np.abs(want).max())
 
 
+def test_long_master_curves_are_fitted_on_bin_means():
+    """3000 points of a known series (more than MAX_FIT_POINTS): the fit is made to bin means and
+    reports a residual at every point; exact data stay exact up to the binning's smoothing (bins
+    of 0.012 decade average a curved log-log line: ~1e-4), and bin means are the weighted means."""
+    from jaxroll.materials import prony
+
+    w = np.logspace(-4, 8, 3000)
+    g = np.asarray(jr.complex_modulus(TRUE_MAT, w))
+    master = jr.materials.MasterCurve(w, g.real, g.imag, np.zeros(w.size, int), 293.15)
+    fit = jr.fit_prony(master, refine=False)
+    assert fit.residuals.shape == (3000, 2) and fit.rms < 0.05
+    x = np.array([0.0, 0.1, 0.9, 1.0])
+    (lw, ys, yl), wb = prony._binned(x, np.array([1.0, 3.0, 5.0, 7.0]), np.array([2.0, 2.0, 4.0, 4.0]),
+                                     np.array([[1.0, 1.0], [1.0, 0.0], [2.0, 1.0], [0.0, 1.0]]), 2)
+    np.testing.assert_allclose(lw, [0.05, 0.95])
+    np.testing.assert_allclose(ys, [2.0, 5.0])  # (1*1 + 1*3)/2 and the weight-0 point out: 5
+    np.testing.assert_allclose(yl, [2.0, 4.0])
+    np.testing.assert_allclose(wb, [[math.sqrt(2), 1.0], [2.0, math.sqrt(2)]])  # sqrt(sum of squared weights)
+
+
 def test_prony_weights_leave_values_out():
     """A loss value 100 x off with weight 0 does not move the one-term fit (exact recovery);
     unit weights are the default; a wrong shape or a negative weight is refused."""

@@ -115,14 +115,22 @@ def _huber_cost(r, c=2.5, axis=None):
     return np.sum(np.where(a <= c, 0.5 * a**2, c * (a - 0.5 * c)), axis=axis)
 
 
+#: The scan of :func:`_shift_onto` uses at most this many points per set (evenly spaced in the
+#: set's frequency order; the refinement uses all): long sweeps cost no more to scan.
+_SCAN_POINTS = 200
+
+
 def _scan_costs(grid, xa, Ya, ca, xb, Yb, cb, noise, margin, min_weight):
     """The cost of :func:`_shift_onto` at every shift of ``grid`` at once (the same formula as
-    :func:`_pair_residuals` and :func:`_huber_cost`, broadcast over the grid)."""
+    :func:`_pair_residuals` and :func:`_huber_cost`, broadcast over the grid), on at most
+    ``_SCAN_POINTS`` points of each set."""
+    ia, ib = (np.unique(np.linspace(0, len(x) - 1, min(len(x), _SCAN_POINTS)).round().astype(int)) for x in (xa, xb))
+    xa, Ya, wta, xb, Yb, wtb = xa[ia], Ya[ia], ca.weight[ia], xb[ib], Yb[ib], cb.weight[ib]
     D = grid[:, None]
     wb = _taper(xb[None, :] + D, ca.lo, ca.hi, margin)
     wa = _taper(xa[None, :] - D, cb.lo, cb.hi, margin)
-    rb = (Yb[None] - ca(xb[None, :] + D)) / noise * np.sqrt(wb[..., None] * cb.weight[None])
-    ra = (Ya[None] - cb(xa[None, :] - D)) / noise * np.sqrt(wa[..., None] * ca.weight[None])
+    rb = (Yb[None] - ca(xb[None, :] + D)) / noise * np.sqrt(wb[..., None] * wtb[None])
+    ra = (Ya[None] - cb(xa[None, :] - D)) / noise * np.sqrt(wa[..., None] * wta[None])
     hub = _huber_cost(rb, axis=(1, 2)) + _huber_cost(ra, axis=(1, 2))
     weight = wa.sum(axis=1) + wb.sum(axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -148,7 +156,8 @@ def _shift_onto(xa, Ya, ca, xb, Yb, cb, noise, margin=0.5, min_weight=3.0):
     k = int(np.nanargmin(costs))
     res = minimize_scalar(cost, bounds=(grid[max(k - 2, 0)], grid[min(k + 2, len(grid) - 1)]), method="bounded",
                           options={"xatol": 1e-6})
-    d = float(res.x) if res.fun <= costs[k] else float(grid[k])
+    at_k = costs[k] if max(len(xa), len(xb)) <= _SCAN_POINTS else cost(float(grid[k]))  # all points, as res.fun
+    d = float(res.x) if res.fun <= at_k else float(grid[k])
     # standard error: Gauss-Newton curvature of the residuals at the optimum, scaled by their scatter
     h = 1e-4
     r0, weight = _pair_residuals(d, xa, Ya, ca, xb, Yb, cb, noise, margin)
