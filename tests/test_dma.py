@@ -802,3 +802,22 @@ def test_fe_decks_read_back_and_leave_out_negligible_terms(tmp_path, writer, suf
     (tmp_path / "bad.inp").write_text("*MATERIAL, NAME=X\n*ELASTIC\n1e9, 0.3\n")
     with pytest.raises(ValueError, match="neither an Abaqus deck"):
         jr.load_material(tmp_path / "bad.inp")
+
+
+def test_pre_shifted_master_curve_reads_into_the_prony_fit(tmp_path):
+    """A master curve written as a semicolon file with decimal commas, |E*| and tan delta (MPa,
+    tension) reads to the shear moduli of the known series (G = E/3), sorted by frequency."""
+    w = np.logspace(-3, 6, 25)[::-1]
+    g = np.asarray(jr.complex_modulus(TRUE_MAT, w))
+    rows = ["reduced frequency;|E*|;tan delta", "rad/s;MPa;-"]
+    rows += [";".join(f"{v:.12g}".replace(".", ",") for v in (wi, 3 * abs(gi) / 1e6, gi.imag / gi.real))
+             for wi, gi in zip(w, g)]
+    (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
+    m = jr.materials.read_master_curve(tmp_path / "m.csv", T_ref=293.15)
+    assert m.T_ref == 293.15 and np.all(np.diff(m.omega) > 0)
+    np.testing.assert_allclose(m.omega, w[::-1], rtol=1e-11)
+    np.testing.assert_allclose(m.storage, g.real[::-1], rtol=1e-10)
+    np.testing.assert_allclose(m.loss, g.imag[::-1], rtol=1e-10)
+    (tmp_path / "m.csv").write_text("\n".join(r.split(";", 1)[1] for r in rows) + "\n")  # no frequency column
+    with pytest.raises(ValueError, match="no master curve found"):
+        jr.materials.read_master_curve(tmp_path / "m.csv", T_ref=293.15)

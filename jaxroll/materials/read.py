@@ -69,7 +69,8 @@ def _sweep_columns():
     """The columns of a raw DMA file (names case-insensitive, spaces read as ``_``)."""
     mod, opt = UNITS["modulus"], dict(required=False, positive=True, blank=True)
     return [
-        Column("frequency", UNITS["frequency"], aliases=("f", "freq", "omega", "angular_frequency"), **opt),
+        Column("frequency", UNITS["frequency"], aliases=("f", "freq", "omega", "angular_frequency", "reduced_frequency",
+                                                         "reduced_angular_frequency", "reduced_omega"), **opt),
         Column("E_storage", mod, aliases=("e_stor", "e'", "estor", "storage_modulus_e", "e_storage"), **opt),
         Column("E_loss", mod, aliases=("e_loss", "e''", "eloss", "loss_modulus_e"), **opt),
         Column("E_complex", mod, aliases=("|e*|", "e*", "e_comp", "complex_modulus_e"), **opt),
@@ -253,3 +254,48 @@ def _line_list(lines, n=8):
     """``'3, 4, 9'`` or ``'3, 4, ... (12 lines)'``."""
     text = ", ".join(str(int(x)) for x in lines[:n])
     return text + (f", ... ({len(lines)} lines)" if len(lines) > n else "")
+
+
+def read_master_curve(path, *, T_ref, poisson=0.5):
+    """Read a master curve that is already shifted (reduced frequency and moduli, no
+    temperature sets) into the :class:`jaxroll.materials.MasterCurve` that
+    :func:`jaxroll.fit_prony` takes.
+
+    The file: any layout :func:`read_dma_sweeps` reads (encodings, delimiters, decimal commas,
+    workbooks, units rows or units in the names), with the reduced frequency (``f``, ``omega``,
+    ``frequency``: ``Hz`` or ``rad/s``) and the moduli (``E'``, ``E''`` / ``G'``, ``G''``, or
+    ``|E*|`` and ``tan delta``); a temperature column, if any, is ignored.
+
+    Args:
+        path: the file.
+        T_ref: the reference temperature of the curve [K] (files rarely say it).
+        poisson: converts tensile moduli to shear, ``G = E / (2 (1 + nu))`` (default 0.5).
+
+    Returns:
+        :class:`MasterCurve` sorted by reduced frequency (one set, ``frequency`` None).
+    """
+    from .shift import MasterCurve
+
+    if not (0.0 <= poisson <= 0.5):
+        raise ValueError(f"poisson must be in [0, 0.5]; got {poisson}")
+    raw, blocks = read_blocks(path, _sweep_columns(), min_names=2, kind="master-curve")
+    path = raw.path
+    tables = [t for _, t in blocks]
+    modes = {m for t in tables for m in ("E", "G") if any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))}
+    if not tables or len(modes) != 1 or any("frequency" not in t for t in tables):
+        raise ValueError(f"{path}: no master curve found (read as {raw.describe()}); expected a header row naming the "
+                         "reduced frequency and the storage and loss moduli of one kind (E or G), e.g. "
+                         "'f, E_stor, E_loss' with a units row 'Hz, MPa, MPa'")
+    mode = modes.pop()
+    omega, storage, loss = (np.concatenate(x) for x in zip(*[(t["frequency"], *_moduli(path, t, mode))
+                                                               for t in tables]))
+    bad = np.isnan(omega) | np.isnan(storage) | np.isnan(loss)
+    if bad.all():
+        raise ValueError(f"{path}: no row gives the frequency, storage and loss moduli")
+    if bad.any():
+        warnings.warn(f"{path}: {int(bad.sum())} row(s) with a missing frequency or modulus skipped", DataWarning,
+                      stacklevel=2)
+    factor = 1.0 / (2.0 * (1.0 + poisson)) if mode == "E" else 1.0
+    omega, storage, loss = omega[~bad], storage[~bad] * factor, loss[~bad] * factor
+    order = np.argsort(omega, kind="stable")
+    return MasterCurve(omega[order], storage[order], loss[order], np.zeros(len(omega), int), float(T_ref))

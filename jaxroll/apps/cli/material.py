@@ -51,6 +51,10 @@ def run(args) -> int:
              + ("left out of the Prony fit)" if args.drop_loss_artifacts else
                 "kept in the Prony fit; --drop-loss-artifacts leaves them out)")) if artifacts.any() else \
         "loss artifacts: none found"
+    decade = np.floor(np.log10(master.omega)).astype(int)  # the fit's rms log residual per decade of reduced omega
+    per_decade = {int(d): [float(np.sqrt(np.mean(pf.residuals[(decade == d) & (weights[:, k] > 0), k] ** 2)))
+                           if np.any((decade == d) & (weights[:, k] > 0)) else None for k in (0, 1)]
+                  for d in np.unique(decade)}
     G0 = float(mat.glassy_modulus())
     report = [
         f"DMA: {args.dma}: {len(sw.omega)} points in {sw.n_sets} temperature sets, {sw.set_temperature[0]:.2f}.."
@@ -66,6 +70,8 @@ def run(args) -> int:
         f"Prony: {pf.n_terms} terms, tau {float(np.min(mat.tau)):.3g}..{float(np.max(mat.tau)):.3g} s; rms log "
         f"residual {pf.rms:.4f} of the values fitted (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = {float(mat.G_inf):.4g} Pa, "
         f"G_0 = {G0:.4g} Pa (shear)",
+        "Prony rms log residual per decade of reduced omega [rad/s] (storage/loss): "
+        + ", ".join(f"1e{d}: " + "/".join("-" if v is None else f"{v:.3f}" for v in sl) for d, sl in per_decade.items()),
     ] + [f"warning: {m}" for m in warned]
     info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
             float(sw.set_temperature[-1])], "T_ref": sh.T_ref,
@@ -75,6 +81,7 @@ def run(args) -> int:
                           "ci95": _ci(arr)["activation_energy"], "rms_decades": arr.rms},
             "warnings": warned,
             "prony": {"n_terms": pf.n_terms, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+                      "rms_log_per_decade": {f"1e{d}": sl for d, sl in per_decade.items()},
                       "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
                                                    for f in master.frequency[artifacts]}),
                       "loss_artifacts_left_out": bool(args.drop_loss_artifacts and artifacts.any())}}
