@@ -35,7 +35,8 @@ __all__ = ["Column", "DataWarning", "MISSING", "RawTable", "Table", "UNITS", "re
 
 
 class DataWarning(UserWarning):
-    """A data file has columns that are not used, or repeated points."""
+    """Data that read, but look wrong: unused columns, skipped rows, implausible values (a unit
+    slip, swapped columns, repeated points), or a fit that the data do not determine."""
 
 
 #: Units understood per quantity, as ``unit: (scale, offset)`` with ``SI = value * scale + offset``.
