@@ -53,7 +53,7 @@ class ResistanceMap:
 
 
 def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",
-                   method="direct") -> ResistanceMap:
+                   method="direct", measured_temperatures=None) -> ResistanceMap:
     """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
     ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
     ``dR_r/dH`` from ``jax.grad``, all points in one compiled, vmapped program.
@@ -66,6 +66,10 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         method: ``"direct"`` (default: milliseconds per point with any Prony spectrum) or a
             method resolved over the whole map (``method.resolve(...)``; the periodic full
             models need periods of ~20 V tau_max, impractical for spectra of 20 decades).
+        measured_temperatures: ``(T_min, T_max)`` [K] the material was measured over (e.g. the
+            ``temperature_range`` that ``jaxroll material`` writes into ``material.json``):
+            points outside are computed but not valid, ``RESULTS.outside_measured_temperatures``
+            (the shift law is extrapolated there). ``None``: not checked.
     """
     import time
 
@@ -93,4 +97,9 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
     t0 = time.perf_counter()
     v, code, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
     seconds = (time.perf_counter() - t0) / v.size
+    if measured_temperatures is not None:
+        lo, hi = sorted(float(t) for t in measured_temperatures)
+        Tn = np.asarray(T)
+        outside = ((Tn < lo - 1e-6) | (Tn > hi + 1e-6))[:, None] & (code == RESULTS.successful)
+        code = np.where(outside, RESULTS.outside_measured_temperatures, code)
     return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))

@@ -5,6 +5,7 @@ Prony series and KNOWN WLF constants (the fit must recover them), exact round tr
 exports, and pyvisco (the peer, skipped when not installed) on the shipped file."""
 
 import math
+import re
 import warnings
 from pathlib import Path
 
@@ -95,6 +96,7 @@ def test_reader_variants(tmp_path):
     ("f,E_stor,E_loss\nHz,MPa,MPa\n0.1,1,1\n", r"no column for \['temperature'\]"),
     ("f,E_stor,E_loss,T\nHz,bar,MPa,C\n0.1,1,1,20\n", "unit 'bar' of column 'E_stor'"),
     ("f,E_stor,E_loss,T,Set\nHz,MPa,MPa,C,-\n0.1,1,1,,0\n", "line 3: set 0 has no temperature"),
+    ("f,E_stor,E_loss,T\nHz,MPa,MPa,C\n1e-300,1,1,20\n", "line 3: frequency 1e-300 Hz lies outside 1e-08..1e"),
 ])
 def test_reader_errors_name_line_and_column(tmp_path, content, match):
     p = tmp_path / "bad.csv"
@@ -105,8 +107,186 @@ def test_reader_errors_name_line_and_column(tmp_path, content, match):
 
 def test_reader_warns_about_unused_columns(tmp_path):
     p = tmp_path / "x.csv"
-    p.write_text("f,E_stor,E_loss,T,tan_delta\nHz,MPa,MPa,C,-\n0.1,1,1,20,1\n1,2,1,20,0.5\n")
-    with pytest.warns(DataWarning, match="tan_delta"):
+    p.write_text("f,E_stor,E_loss,T,strain\nHz,MPa,MPa,C,-\n0.1,1,1,20,1\n1,2,1,20,0.5\n10,3,1,20,0.5\n")
+    with pytest.warns(DataWarning, match="strain"):
+        jr.read_dma_sweeps(p)
+
+
+# ------------------------------------------------------------------------ instrument layouts
+
+LAYOUTS = Path(__file__).resolve().parent / "data"  # written by tests/data/make_layouts.py
+LAYOUT_SETS = (0, 7, 12, 20)  # the shipped sets in those files
+
+
+def _shipped_sets():
+    raw = np.genfromtxt(DATA, delimiter=",", skip_header=2)  # independent parse: f, E', E'', T, Set
+    return np.concatenate([raw[raw[:, 4] == s] for s in LAYOUT_SETS])
+
+
+@pytest.mark.parametrize("name, source, title_T", [
+    ("eplexor_exported_data.csv", "tension, nu = 0.5", False),   # cp1252, ';', decimal comma, |E*|, tan delta, ---
+    ("trios_frequency_sweeps.txt", "shear", True),               # [step] segments, T in the step name
+    ("rheocompass_intervals.txt", "shear", False),               # UTF-16, decimal comma, Interval data blocks
+])
+def test_instrument_layouts_read_the_shipped_numbers(name, source, title_T):
+    """Each layout holds four of the shipped sets (tension in MPa; the rheometers as G = E/3 in
+    Pa and rad/s, 10 significant digits): the sweeps equal the shipped file's values."""
+    raw = _shipped_sets()
+    sw = jr.read_dma_sweeps(LAYOUTS / name)
+    assert sw.source == source and sw.n_sets == 4 and len(sw.omega) == 40
+    np.testing.assert_allclose(sw.omega, 2 * np.pi * raw[:, 0], rtol=1e-9)
+    np.testing.assert_allclose(sw.storage, raw[:, 1] * 1e6 / 3, rtol=1e-9)
+    np.testing.assert_allclose(sw.loss, raw[:, 2] * 1e6 / 3, rtol=1e-9)
+    np.testing.assert_array_equal(sw.set, np.repeat(np.arange(4), 10))
+    want = [raw[raw[:, 4] == s, 3].mean() + 273.15 for s in LAYOUT_SETS]
+    # TRIOS: the step name gives the set's temperature to 0.1 degC (Frequency sweep (2.5 °C))
+    np.testing.assert_allclose(sw.set_temperature, want, atol=0.05 if title_T else 1e-9)
+
+
+def test_eplexor_polar_moduli_convert_to_storage_and_loss(tmp_path):
+    """|E*| and tan delta alone give E' = |E*| / sqrt(1 + tan^2), E'' = E' tan (here E' = 3, E'' = 4
+    MPa from |E*| = 5, tan = 4/3): the 3-4-5 triangle."""
+    p = tmp_path / "polar.csv"
+    rows = "".join(f"{s},{T},{f},5,1.3333333333333333\n" for s, T in ((0, 20), (1, 40)) for f in (1, 10, 100))
+    p.write_text("Set,T,f,|E*|,tan delta\n,°C,Hz,MPa,-\n" + rows + "1,40,1000,---,1\n")
+    with pytest.warns(DataWarning, match=r"1 row\(s\) with a missing frequency or modulus skipped \(lines 9\)"):
+        sw = jr.read_dma_sweeps(p)
+    np.testing.assert_allclose(sw.storage, 1e6, rtol=1e-15)  # 3 MPa / 3
+    np.testing.assert_allclose(sw.loss, 4e6 / 3, rtol=1e-15)
+
+
+def test_eplexor_workbook(tmp_path):
+    """The Eplexor layout as an .xlsx workbook (sheet "Exported Data") reads like its text copy."""
+    openpyxl = pytest.importorskip("openpyxl")
+    text = jr.io.read_rows(LAYOUTS / "eplexor_exported_data.csv")
+    book = openpyxl.Workbook()
+    sheet = book.active
+    sheet.title = "Exported Data"
+    for k, (_, r) in enumerate(text.rows):
+        sheet.append([float(c) if k >= 2 and c.strip() not in ("", "---") else c for c in r])
+    book.save(tmp_path / "eplexor.xlsx")
+    a, b = jr.read_dma_sweeps(tmp_path / "eplexor.xlsx"), jr.read_dma_sweeps(LAYOUTS / "eplexor_exported_data.csv")
+    np.testing.assert_array_equal(a.storage, b.storage)
+    np.testing.assert_array_equal(a.set_temperature, b.set_temperature)
+
+
+@pytest.mark.parametrize("encoding, delimiter, decimal_comma", [
+    ("cp1252", ",", False), ("utf-8", ";", True), ("utf-8-sig", "\t", False), ("utf-16", "\t", True),
+    ("utf-16-le", ";", False)])
+def test_shipped_file_in_other_encodings_delimiters_and_decimal_marks(tmp_path, encoding, delimiter, decimal_comma):
+    """The shipped file rewritten as Windows / spreadsheet exports do (units row 'C' -> '°C')
+    reads to exactly the same sweeps."""
+    text = DATA.read_text(encoding="utf-8-sig").replace(" C,", " °C,").replace(",", delimiter)
+    if decimal_comma:
+        text = text.replace(".", ",")
+    p = tmp_path / "x.csv"
+    p.write_bytes(text.replace("\n", "\r\n").encode(encoding))
+    a, b = jr.read_dma_sweeps(p), jr.read_dma_sweeps(DATA)
+    for name in ("omega", "storage", "loss", "temperature", "set", "set_temperature"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+@pytest.mark.parametrize("content, match", [
+    (b"hello world\nthis is not a table\n", r"no DMA table found \(read as UTF-8, comma-separated; it begins "
+                                            r"\['hello world', 'this is not a table'\]\); expected a header row"),
+    ("Zeit;Kraft\ns;N\n1,5;2\n".encode("cp1252"), r"no DMA table found \(read as cp1252|no DMA table found \(read as UTF-8"),
+    (b"\x00\x01\x02garbage\xff\xfe", r"no DMA table found"),
+])
+def test_unknown_layout_fails_in_one_line(tmp_path, content, match):
+    p = tmp_path / "x.dat"
+    p.write_bytes(content)
+    with pytest.raises(ValueError, match=match) as err:
+        jr.read_dma_sweeps(p)
+    assert "\n" not in str(err.value)
+
+
+# ------------------------------------------------------------------------ plausibility checks
+
+
+def _mutated(tmp_path, change, units=None):
+    """The shipped file with ``change(rows)`` applied to its data rows (lists of floats:
+    f, E', E'', T, Set) and optionally another units row."""
+    lines = DATA.read_text(encoding="utf-8-sig").splitlines()
+    rows = [[float(c) for c in line.split(",")] for line in lines[2:]]
+    rows = change(rows) or rows
+    p = tmp_path / "mutated.csv"
+    p.write_text("\n".join([lines[0], units or lines[1]] + [",".join(repr(v) for v in r) for r in rows]) + "\n")
+    return p
+
+
+def _scale_set(s, k):
+    def change(rows):
+        for r in rows:
+            if r[4] == s:
+                r[1] *= k
+                r[2] *= k
+    return change
+
+
+def _swap(rows):
+    for r in rows:
+        r[1], r[2] = r[2], r[1]
+
+
+def _reverse_frequencies(rows):
+    for s in range(21):
+        idx = [i for i, r in enumerate(rows) if r[4] == s]
+        f = [rows[i][0] for i in idx][::-1]
+        for i, v in zip(idx, f):
+            rows[i][0] = v
+
+
+def _all_one_frequency(rows):
+    for r in rows:
+        r[0] = 1.0
+
+
+def _close_sets(rows):
+    T10 = float(np.mean([r[3] for r in rows if r[4] == 10]))
+    for r in rows:
+        if r[4] == 11:
+            r[3] = T10 + 0.05
+
+
+def _loss_times(k):
+    def change(rows):
+        for r in rows:
+            r[2] = r[1] * k
+    return change
+
+
+@pytest.mark.parametrize("change, units, match", [
+    (_scale_set(10, 1e-6), None, r"set 10 \(24\.98 degC\): the storage modulus is -6\.0 decades off its neighbours "
+                                 r"\(10\^-6: a unit slip such as Pa under an MPa header\?\)"),
+    (_scale_set(0, 1e3), None, r"set 0 \(-49\.91 degC\): the storage modulus is \+3\.0 decades off"),
+    (lambda rows: [r[:0] + [r[0] * 2 * math.pi] + r[1:] for r in rows], None, r"2 pi times round values: are they "
+                                                                               r"rad/s labelled Hz"),
+    (lambda rows: [r for r in rows if r[4] >= 7], " Hz, MPa, MPa, K, -", r"are they degC labelled K\?"),
+    (_swap, None, r"set 0 \(-49\.91 degC\): loss above storage on the glassy plateau at 10 of 10 points .*swapped"),
+    (_reverse_frequencies, None, r"storage falls with frequency in 13 of 21 sets \(set 8 \(9\.95 degC\), "),
+    (_all_one_frequency, None, r"set 0 \(-49\.91 degC\) has 1 distinct frequency \(lines 3, 4, 5"),
+    (lambda rows: rows[:47] + [list(rows[47])] + rows[47:], None, r"1 repeated row\(s\) \(lines 51\)"),
+    (_close_sets, None, r"set 10 \(24\.98 degC\) and set 11 \(25\.03 degC\) are 0\.05 K apart"),
+    (_loss_times(1e9), None, r"above 1e\+11 Pa no polymer is that stiff"),
+])
+def test_mutated_shipped_data_is_named(tmp_path, change, units, match):
+    """Each mutation of the shipped file that the issue found fitted silently gets a warning
+    that names the set and the fix."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        jr.read_dma_sweeps(_mutated(tmp_path, change, units))
+    messages = [str(w.message) for w in caught]
+    assert all(w.category is DataWarning for w in caught) and any(re.search(match, m) for m in messages), messages
+
+
+def test_negative_kelvin_hints_at_degc(tmp_path):
+    with pytest.raises(ValueError, match=r"line 3: T must be above absolute zero, got -49\.9612 K \(degC labelled K\?\)"):
+        jr.read_dma_sweeps(_mutated(tmp_path, lambda rows: None, "Hz, MPa, MPa, K, -"))
+
+
+def test_clean_files_raise_no_data_warning():
+    """The shipped files and the layout files pass every check (warnings are errors here)."""
+    for p in (DATA, DATA.parent / "dma_example.csv", *sorted(LAYOUTS.glob("*.csv")), *sorted(LAYOUTS.glob("*.txt"))):
         jr.read_dma_sweeps(p)
 
 
@@ -221,6 +401,42 @@ def test_end_to_end_synthetic_master_curve_matches_known_material(synthetic):
     assert fit.rms < 0.05
 
 
+def test_prony_jacobian_closed_form_matches_forward_mode():
+    """The refinement's closed-form Jacobian equals jax.jacfwd of the residual (rounding only)."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxroll.materials import prony
+
+    rng = np.random.default_rng(4)
+    n = 7
+    p = jnp.asarray(rng.normal(size=2 * n + 1))
+    args = (jnp.asarray(np.linspace(-5.0, 12.0, 30)), jnp.asarray(rng.normal(size=30)), jnp.asarray(rng.normal(size=30)),
+            jnp.asarray([-15.0, 8.0]), jnp.asarray(rng.uniform(0.0, 1.0, 60)))
+    want = np.asarray(jax.jacfwd(prony._prony_residuals)(p, *args))
+    np.testing.assert_allclose(np.asarray(prony._prony_jacobian(p, *args)), want, rtol=1e-12, atol=1e-14 * np.abs(want).max())
+
+
+def test_long_master_curves_are_fitted_on_bin_means():
+    """3000 points of a known series (more than MAX_FIT_POINTS): the fit is made to bin means and
+    reports a residual at every point; exact data stay exact up to the binning's smoothing (bins
+    of 0.012 decade average a curved log-log line: ~1e-4), and bin means are the weighted means."""
+    from jaxroll.materials import prony
+
+    w = np.logspace(-4, 8, 3000)
+    g = np.asarray(jr.complex_modulus(TRUE_MAT, w))
+    master = jr.materials.MasterCurve(w, g.real, g.imag, np.zeros(w.size, int), 293.15)
+    fit = jr.fit_prony(master, refine=False)
+    assert fit.residuals.shape == (3000, 2) and fit.rms < 0.05
+    x = np.array([0.0, 0.1, 0.9, 1.0])
+    (lw, ys, yl), wb = prony._binned(x, np.array([1.0, 3.0, 5.0, 7.0]), np.array([2.0, 2.0, 4.0, 4.0]),
+                                     np.array([[1.0, 1.0], [1.0, 0.0], [2.0, 1.0], [0.0, 1.0]]), 2)
+    np.testing.assert_allclose(lw, [0.05, 0.95])
+    np.testing.assert_allclose(ys, [2.0, 5.0])  # (1*1 + 1*3)/2 and the weight-0 point out: 5
+    np.testing.assert_allclose(yl, [2.0, 4.0])
+    np.testing.assert_allclose(wb, [[math.sqrt(2), 1.0], [2.0, math.sqrt(2)]])  # sqrt(sum of squared weights)
+
+
 def test_prony_weights_leave_values_out():
     """A loss value 100 x off with weight 0 does not move the one-term fit (exact recovery);
     unit weights are the default; a wrong shape or a negative weight is refused."""
@@ -236,8 +452,10 @@ def test_prony_weights_leave_values_out():
     np.testing.assert_allclose(np.asarray(fit.material.tau), np.asarray(true.tau), rtol=1e-6)
     assert fit.rms < 1e-8 and fit.residuals[7, 1] == pytest.approx(-math.log(100.0), rel=1e-6)
     np.testing.assert_array_equal(fit.weights, weights)
-    plain = jr.fit_prony(master, n_terms=1)
-    assert jr.fit_prony(master, n_terms=1, weights=np.ones((w.size, 2))).rms == plain.rms and plain.rms > 0.1
+    with warnings.catch_warnings():  # one term, one outlier: its rms (~0.5) sits at MAX_PRONY_RMS's warning
+        warnings.simplefilter("ignore", DataWarning)
+        plain = jr.fit_prony(master, n_terms=1)
+        assert jr.fit_prony(master, n_terms=1, weights=np.ones((w.size, 2))).rms == plain.rms and plain.rms > 0.1
     for bad in (np.ones((w.size, 1)), -weights):
         with pytest.raises(ValueError, match="weights must be finite, >= 0"):
             jr.fit_prony(master, weights=bad)
@@ -355,9 +573,93 @@ def test_load_material_rejects_other_files(tmp_path):
         jr.load_material(tmp_path / "x.json")
     with pytest.raises(ValueError, match="use a .json or .csv"):
         jr.load_material(tmp_path / "x.txt")
+    for text, match in (('{"material": "GeneralizedMaxwell", "G_inf": 1, "G": [1]}', r"has no \['tau'\]"),
+                        ('{"material": "GeneralizedMaxwell", "G_inf": 1, "G": [1], "tau": [1, 2]}', "one length"),
+                        ('{"material": "GeneralizedMaxwell", "G_inf": 1, "G": [1], "tau": [1], "shift": {"law": "WLF"}}',
+                         "the shift law needs"),
+                        ("{not json", "not a JSON file")):
+        (tmp_path / "x.json").write_text(text)
+        with pytest.raises(ValueError, match=match):
+            jr.load_material(tmp_path / "x.json")
 
 
 # ---------------------------------------------------------------------------------------- the shipped data
+
+
+def _warned(fn, *args, **kwargs):
+    """``(fn(...), messages)``: every warning ``fn`` issues must be a DataWarning."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fn(*args, **kwargs)
+    assert all(w.category is DataWarning for w in caught), [str(w.message) for w in caught]
+    return out, [str(w.message) for w in caught]
+
+
+def _shifts(T, log_a, ref):
+    """Shift factors given directly (the fits see only these)."""
+    T = np.asarray(T, float)
+    return jr.materials.ShiftFactors(T, np.asarray(log_a, float), np.zeros(len(T)), np.zeros(len(T)), float(T[ref]),
+                                     ref)
+
+
+def test_degenerate_wlf_is_flagged_and_a_fixed_c2_recovers_the_slope():
+    """Shift factors exactly linear in T over 40 K (slope -0.12 decade/K, a little noise): only
+    C1/C2 is determined. The fit says so, and with C2 held the slope C1/C2 comes back."""
+    T = np.arange(293.15, 334.0, 5.0)
+    rng = np.random.default_rng(3)
+    y = -0.12 * (T - T[4]) + 0.01 * rng.standard_normal(len(T))
+    y[4] = 0.0
+    fit, messages = _warned(jr.fit_wlf, _shifts(T, y, 4))
+    assert any(re.search(r"not separately determined .* only the slope C1/C2 = -?0\.1\d* 1/K is known. Hold C2", m)
+               for m in messages), messages
+    assert fit.degenerate and "not separately determined" in fit.notes[0]
+    held = jr.fit_wlf(_shifts(T, y, 4), C2=1e3)  # C2 >> 20 K: the law is the line; C1/C2 its slope
+    assert not held.degenerate and held.interval("C2") == "held fixed" and held.interval("C1").startswith("95 % [")
+    # the WLF line at C2 = 1000 K bends by |dT|/C2 <= 2 %: slope within 2 % (plus the 0.01-decade noise)
+    assert held.params["C1"] / 1e3 == pytest.approx(0.12, rel=0.03)
+
+
+def test_exactly_determined_wlf_has_no_interval():
+    """Three sets, two shift factors for two constants: a WLF curve through them exactly (the
+    values are made by WLF(8.86, 101.6)), with no interval rather than a zero-width one."""
+    law = jr.WLF(C1=8.86, C2=101.6, T_ref=293.15)
+    T = np.array([273.15, 293.15, 313.15])
+    y = np.asarray(law.log_shift(T)) / np.log(10.0)
+    fit = jr.fit_wlf(_shifts(T, y, 1))
+    assert fit.params["C1"] == pytest.approx(8.86, rel=1e-8) and fit.params["C2"] == pytest.approx(101.6, rel=1e-8)
+    assert fit.interval("C1") == fit.interval("C2") == "no interval (exactly determined)"
+    assert any("exactly determined: 2 shift factor(s) for 2 parameter(s)" in n for n in fit.notes)
+
+
+def test_wlf_outside_physical_ranges_and_a_law_that_misses_are_named():
+    """Shifts that grow with temperature give C1 < 0; scattered shifts leave the law more than 0.5
+    decade rms off."""
+    T = np.arange(273.15, 334.0, 10.0)
+    _, messages = _warned(jr.fit_wlf, _shifts(T, 0.1 * (T - T[2]), 2))
+    assert any("outside their physical ranges: C1 = -" in m for m in messages), messages
+    y = np.array([3.0, 0.0, 0.0, -3.0, 0.0, -3.0, -1.0])  # sawtooth: no law fits
+    fit = jr.materials.fit_arrhenius(_shifts(T, y, 1))
+    assert fit.rms > 0.5 and any("misses the shift factors by" in n for n in fit.notes)
+
+
+def test_prony_rms_above_threshold_warns():
+    """A master curve whose every other point is 10^3 higher (a unit slip in every second set)
+    cannot be one series: the rms log residual exceeds MAX_PRONY_RMS and the fit says so."""
+    w = np.logspace(-2, 2, 20)
+    gs, gl = (np.asarray(f(TRUE_MAT, w)) for f in (jr.materials.storage_modulus, jr.materials.loss_modulus))
+    k = np.where(np.arange(20) % 2, 1e3, 1.0)
+    master = jr.materials.MasterCurve(w, gs * k, gl * k, np.zeros(20, int), 293.15)
+    with pytest.warns(DataWarning, match=r"misses the master curve by an rms log residual of .* \(more than 0\.5"):
+        pf = jr.fit_prony(master, refine=False)
+    # half the points 3 decades (6.9 in ln) off: no series comes within 0.5 of both halves
+    assert pf.rms > jr.materials.prony.MAX_PRONY_RMS
+
+
+def test_shift_needs_three_distinct_frequencies_per_set():
+    sw = jr.materials.DMASweeps(np.ones(6), np.ones(6), np.ones(6), np.repeat([280.0, 300.0], 3),
+                                np.repeat([0, 1], 3), np.array([280.0, 300.0]))
+    with pytest.raises(ValueError, match="set 0 .* has 1 distinct frequencies; at least 3"):
+        jr.fit_shift_factors(sw)
 
 
 @pytest.fixture(scope="module")
@@ -463,3 +765,59 @@ def test_resistance_map_values_and_gradients(tmp_path, geometry, load):
     m.write_csv(tmp_path / "map.csv")
     table = np.genfromtxt(tmp_path / "map.csv", delimiter=",", skip_header=2)
     np.testing.assert_allclose(table[:, 2].reshape(2, 2), m.value, rtol=1e-7)
+
+
+def test_resistance_map_flags_temperatures_outside_the_measured_range():
+    """Points outside the measured range keep their value (the shift law extrapolated) but are not
+    valid, with their own RESULTS reason; the range's ends are inside."""
+    mat = jr.StandardLinearSolid(G0=3e6, tau=0.25, f=1.0).to_prony()
+    wlf = jr.WLF(C1=8.86, C2=101.6, T_ref=293.15)
+    Ts = np.array([250.0, 283.15, 303.15, 500.0])
+    m = jr.resistance_map(mat, wlf, jr.Layer(H=0.01), radius=0.01, load=500.0, temperatures=Ts, speeds=[1e-2],
+                          geometry="cylinder", measured_temperatures=(283.15, 303.15))
+    assert m.valid[:, 0].tolist() == [False, True, True, False]
+    assert [jr.RESULTS.names[c] for c in m.result[:, 0]] == ["outside_measured_temperatures", "successful",
+                                                             "successful", "outside_measured_temperatures"]
+    assert np.all(np.isfinite(m.value))
+
+
+@pytest.mark.parametrize("writer, suffix", [("write_abaqus", ".inp"), ("write_ansys", ".mac")])
+def test_fe_decks_read_back_and_leave_out_negligible_terms(tmp_path, writer, suffix):
+    """A deck read back gives the series written (10 significant digits); a term below 1e-6 of
+    G_0 is left out of the deck, with a comment, and its modulus moves to G_inf (G_0 kept)."""
+    G = np.array([3.5e6, 2.5e-8, 1.1e7, 2.2e8, 4.0e7, 9.0e6, 1.0e6])  # 7 terms: two TBDATA lines in ANSYS
+    tau = np.array([1e-6, 1e-4, 3e-3, 7.5, 30.0, 1e3, 1e5])
+    mat, wlf = jr.GeneralizedMaxwell(G_inf=1.25e6, G=G, tau=tau), jr.WLF(C1=9.1, C2=105.3, T_ref=298.15)
+    p = tmp_path / f"m{suffix}"
+    getattr(jr.materials, writer)(mat, p, shift=wlf, poisson=0.45)
+    assert "1 term(s) with g_i < 1e-06 left out" in p.read_text()
+    back, shift = jr.load_material(p)
+    keep = G > 1.0
+    np.testing.assert_allclose(np.asarray(back.G), G[keep], rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(back.tau), tau[keep], rtol=1e-9)
+    G0 = 1.25e6 + G.sum()
+    assert math.isclose(float(back.glassy_modulus()), G0, rel_tol=1e-9)
+    assert math.isclose(float(back.G_inf), 1.25e6 + 2.5e-8, rel_tol=1e-6)  # G_inf = G_0 (1 - sum g_i kept)
+    assert (shift.C1, shift.C2, shift.T_ref) == (9.1, 105.3, 298.15)
+    (tmp_path / "bad.inp").write_text("*MATERIAL, NAME=X\n*ELASTIC\n1e9, 0.3\n")
+    with pytest.raises(ValueError, match="neither an Abaqus deck"):
+        jr.load_material(tmp_path / "bad.inp")
+
+
+def test_pre_shifted_master_curve_reads_into_the_prony_fit(tmp_path):
+    """A master curve written as a semicolon file with decimal commas, |E*| and tan delta (MPa,
+    tension) reads to the shear moduli of the known series (G = E/3), sorted by frequency."""
+    w = np.logspace(-3, 6, 25)[::-1]
+    g = np.asarray(jr.complex_modulus(TRUE_MAT, w))
+    rows = ["reduced frequency;|E*|;tan delta", "rad/s;MPa;-"]
+    rows += [";".join(f"{v:.12g}".replace(".", ",") for v in (wi, 3 * abs(gi) / 1e6, gi.imag / gi.real))
+             for wi, gi in zip(w, g)]
+    (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
+    m = jr.materials.read_master_curve(tmp_path / "m.csv", T_ref=293.15)
+    assert m.T_ref == 293.15 and np.all(np.diff(m.omega) > 0)
+    np.testing.assert_allclose(m.omega, w[::-1], rtol=1e-11)
+    np.testing.assert_allclose(m.storage, g.real[::-1], rtol=1e-10)
+    np.testing.assert_allclose(m.loss, g.imag[::-1], rtol=1e-10)
+    (tmp_path / "m.csv").write_text("\n".join(r.split(";", 1)[1] for r in rows) + "\n")  # no frequency column
+    with pytest.raises(ValueError, match="no master curve found"):
+        jr.materials.read_master_curve(tmp_path / "m.csv", T_ref=293.15)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from jaxroll.io import UNITS, Column, DataWarning, read_rows, read_table, write_table
+from jaxroll.io import UNITS, Column, DataWarning, read_blocks, read_rows, read_table, write_table
 
 DMA = [Column("frequency", UNITS["frequency"], positive=True), Column("storage", UNITS["modulus"], positive=True),
        Column("temperature", UNITS["temperature"], required=False, positive=True)]
@@ -117,3 +117,95 @@ def test_aliases_unused_columns_and_label_columns(tmp_path):
     p.write_text("f,freq,storage\nHz,Hz,Pa\n1,1,2\n")
     with pytest.raises(ValueError, match=r"line 1: two columns give the frequency \('f' and 'freq'\)"):
         read_table(p, [Column("frequency", UNITS["frequency"], aliases=("f", "freq")), DMA[1]])
+
+
+# ------------------------------------------------------------------------ sniffing (read_rows)
+
+TEXT = "# note\nfrequency,storage,temperature\nHz,MPa,°C\n0.1,1.5,-20.25\n10,2.5e1,80\n"
+
+
+@pytest.mark.parametrize("encoding, delimiter, decimal, described", [
+    ("utf-8", ",", ".", "UTF-8, comma-separated"),
+    ("utf-8-sig", ";", ".", "UTF-8, semicolon-separated"),
+    ("cp1252", ";", ",", "cp1252, semicolon-separated, decimal comma"),
+    ("latin-1", "\t", ".", "cp1252, tab-separated"),  # latin-1 and cp1252 agree on these bytes
+    ("utf-16", "\t", ",", "UTF-16, tab-separated, decimal comma"),
+    ("utf-16-le", ",", ".", "UTF-16LE, comma-separated"),  # no byte-order mark
+])
+def test_sniffed_encodings_delimiters_and_decimal_commas(tmp_path, encoding, delimiter, decimal, described):
+    """Every variant reads to the values written in the text (1 MPa = 1e6 Pa, 0 degC = 273.15 K)."""
+    text = TEXT.replace(",", delimiter)
+    if decimal == ",":
+        text = text.replace(".", ",")
+    p = tmp_path / "t.csv"
+    p.write_bytes(text.replace("\n", "\r\n").encode(encoding))
+    raw = read_rows(p)
+    assert raw.describe() == described and raw.comments == ["note"]
+    t = read_table(p, DMA)
+    np.testing.assert_allclose(t["frequency"], [0.2 * math.pi, 20 * math.pi], rtol=1e-15)
+    np.testing.assert_allclose(t["storage"], [1.5e6, 25e6], rtol=1e-15)
+    np.testing.assert_allclose(t["temperature"], [252.9, 353.15], rtol=1e-15)
+    assert t.units["temperature"] == "°C"
+
+
+def test_blocks_with_preamble_units_in_brackets_and_missing_marks(tmp_path):
+    """Two tables under titles (as instrument exports write them); ``---`` is a missing value."""
+    p = tmp_path / "t.txt"
+    p.write_text("Sample:\tA\n[step]\tsweep 1\nlabel\tfrequency\tstorage\n\t[Hz]\t[kPa]\n\t1\t2\n\t3\t---\n"
+                 "[step]\tsweep 2\nlabel\tfrequency\tstorage\n\t[rad/s]\t[Pa]\n\t5\t6\n")
+    cols = [DMA[0], Column("storage", UNITS["modulus"], blank=True)]
+    raw, blocks = read_blocks(p, cols)
+    assert raw.describe() == "UTF-8, tab-separated" and [title for title, _ in blocks] == ["Sample: A [step] sweep 1",
+                                                                                            "[step] sweep 2"]
+    (_, a), (_, b) = blocks
+    np.testing.assert_allclose(a["frequency"], [2 * math.pi, 6 * math.pi], rtol=1e-15)
+    assert a["storage"][0] == 2e3 and np.isnan(a["storage"][1]) and a.lines.tolist() == [5, 6]
+    assert b["frequency"].tolist() == [5.0] and b["storage"].tolist() == [6.0]
+    assert read_blocks(tmp_path / "t.txt", [DMA[0], Column("temperature", UNITS["temperature"])])[1] == []
+
+
+def test_workbook_without_the_extra_names_it(tmp_path, monkeypatch):
+    import builtins
+
+    real = builtins.__import__
+
+    def no_excel(name, *args, **kwargs):
+        if name in ("openpyxl", "xlrd"):
+            raise ImportError(name)
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_excel)
+    for suffix in (".xlsx", ".xls"):
+        p = tmp_path / f"t{suffix}"
+        p.write_bytes(b"PK\x03\x04" if suffix == ".xlsx" else b"\xd0\xcf\x11\xe0")
+        with pytest.raises(ValueError, match=r'pip install "jaxroll\[excel\]"') as err:
+            read_rows(p)
+        assert "\n" not in str(err.value)
+
+
+def test_xlsx_workbook(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    book = openpyxl.Workbook()
+    book.active.title = "Notes"
+    book.active.append(["made by test_io"])
+    sheet = book.create_sheet("Exported Data")
+    for row in (["frequency", "storage"], ["Hz", "MPa"], [0.1, 1.5], [10, "---"]):
+        sheet.append(row)
+    book.save(tmp_path / "t.xlsx")
+    t = read_table(tmp_path / "t.xlsx", [DMA[0], Column("storage", UNITS["modulus"], blank=True)])
+    np.testing.assert_allclose(t["frequency"], [0.2 * math.pi, 20 * math.pi], rtol=1e-15)
+    assert t["storage"][0] == 1.5e6 and np.isnan(t["storage"][1])
+    assert read_rows(tmp_path / "t.xlsx").describe() == "xlsx sheet 'Exported Data'"
+
+
+def test_xls_workbook(tmp_path):
+    pytest.importorskip("xlrd")
+    xlwt = pytest.importorskip("xlwt")  # only to write the test file
+    book = xlwt.Workbook()
+    sheet = book.add_sheet("Exported Data")
+    for i, row in enumerate((["frequency", "storage"], ["Hz", "MPa"], [0.1, 1.5])):
+        for j, v in enumerate(row):
+            sheet.write(i, j, v)
+    book.save(str(tmp_path / "t.xls"))
+    t = read_table(tmp_path / "t.xls", DMA[:2])
+    assert t["frequency"].tolist() == [0.2 * math.pi] and t["storage"].tolist() == [1.5e6]

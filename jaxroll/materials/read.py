@@ -1,17 +1,21 @@
 """Reading raw multi-temperature DMA frequency sweeps into :class:`DMASweeps` (shear, SI).
 
-An instrument-style CSV: pyvisco's layout ``f, E_stor, E_loss, T, Set`` with a units row, or
-units in the names (``E_stor [MPa]``); tension ``E`` or shear ``G``. Tensile moduli become shear
+Instrument exports and spreadsheets: pyvisco's layout ``f, E_stor, E_loss, T, Set`` with a
+units row, or units in the names (``E_stor [MPa]``); Eplexor, TA TRIOS and Anton Paar
+RheoCompass exports; any encoding, delimiter and decimal mark :func:`jaxroll.io.read_rows`
+sniffs; tension ``E`` or shear ``G``, as storage and loss or as ``|M*|`` and ``tan delta``. Tensile moduli become shear
 moduli through ``G = E / (2 (1 + nu))`` (``nu = 0.5``: ``G = E/3``).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import re
+import warnings
 
 import numpy as np
 
-from ..io import UNITS, Column, read_table
+from ..io import UNITS, Column, DataWarning, read_blocks
 
 
 @dataclasses.dataclass(frozen=True)
@@ -26,6 +30,7 @@ class DMASweeps:
             temperature.
         set_temperature: mean temperature of each set [K], increasing.
         source: how the moduli were obtained (``"shear"`` or ``"tension, nu = 0.5"``).
+        line: the file line of each row (for messages), or None.
     """
 
     omega: np.ndarray
@@ -35,6 +40,7 @@ class DMASweeps:
     set: np.ndarray
     set_temperature: np.ndarray
     source: str = "shear"
+    line: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.omega)
@@ -60,17 +66,31 @@ class DMASweeps:
 
 
 def _sweep_columns():
-    """The columns of a raw DMA file (names case-insensitive)."""
-    mod, opt = UNITS["modulus"], dict(required=False, positive=True)
+    """The columns of a raw DMA file (names case-insensitive, spaces read as ``_``)."""
+    mod, opt = UNITS["modulus"], dict(required=False, positive=True, blank=True)
     return [
-        Column("frequency", UNITS["frequency"], aliases=("f", "freq", "omega", "angular_frequency"), **opt),
-        Column("E_storage", mod, aliases=("e_stor", "e'", "estor", "storage_modulus_e"), **opt),
+        Column("frequency", UNITS["frequency"], aliases=("f", "freq", "omega", "angular_frequency", "reduced_frequency",
+                                                         "reduced_angular_frequency", "reduced_omega"), **opt),
+        Column("E_storage", mod, aliases=("e_stor", "e'", "estor", "storage_modulus_e", "e_storage"), **opt),
         Column("E_loss", mod, aliases=("e_loss", "e''", "eloss", "loss_modulus_e"), **opt),
+        Column("E_complex", mod, aliases=("|e*|", "e*", "e_comp", "complex_modulus_e"), **opt),
         Column("G_storage", mod, aliases=("g_stor", "g'", "gstor", "storage_modulus"), **opt),
         Column("G_loss", mod, aliases=("g_loss", "g''", "gloss", "loss_modulus"), **opt),
-        Column("temperature", UNITS["temperature"], aliases=("t", "temp"), blank=True, **opt),
+        Column("G_complex", mod, aliases=("|g*|", "g*", "g_comp", "complex_modulus", "complex_shear_modulus"), **opt),
+        Column("tan_delta", UNITS["dimensionless"], aliases=("tan_delta", "tan(delta)", "tan_δ", "tanδ", "tan_d",
+                                                             "tan_del", "loss_factor", "damping_factor"), **opt),
+        Column("temperature", UNITS["temperature"], aliases=("t", "temp"), **opt),
         Column("set", None, aliases=("set_id", "segment", "step"), required=False),
+        Column("point", None, aliases=("index", "point_no.", "no."), required=False),  # read, not used
     ]
+
+
+#: What a DMA file must give, for messages.
+_EXPECTED = ("a header row naming the frequency, the moduli (E', E'' or G', G'', or |E*| and tan delta) and the "
+             "temperature, e.g. 'f, E_stor, E_loss, T[, Set]' with a units row 'Hz, MPa, MPa, C'")
+#: Angular frequencies [rad/s] a DMA sweep can hold (1e-8..1e8 Hz): outside, a column or unit is wrong.
+_OMEGA_RANGE = (2 * np.pi * 1e-8, 2 * np.pi * 1e8)
+_TITLE_TEMPERATURE = re.compile(r"(-?\d+(?:\.\d+)?)\s*(°\s*C|ºC|degC|K)\b")
 
 
 def _cluster_temperatures(T, tol=1.0):
@@ -81,23 +101,56 @@ def _cluster_temperatures(T, tol=1.0):
     return labels
 
 
+def _moduli(path, t, mode):
+    """Storage and loss of mode ``E`` or ``G`` per row from the columns the table has: the pair
+    itself, or ``|M*|`` and ``tan delta`` (``M' = |M*| / sqrt(1 + tan^2)``, ``M'' = M' tan``),
+    row by row where a value is missing; ``nan`` where nothing gives it."""
+    n = len(t.lines)
+    nan = np.full(n, np.nan)
+    storage, loss = t.get(f"{mode}_storage", nan).copy(), t.get(f"{mode}_loss", nan).copy()
+    tan, comp = t.get("tan_delta", nan), t.get(f"{mode}_complex", nan)
+    from_comp = comp / np.sqrt(1.0 + tan**2)
+    storage = np.where(np.isnan(storage), from_comp, storage)
+    loss = np.where(np.isnan(loss), storage * tan, loss)
+    return storage, loss
+
+
 def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     """Read raw multi-temperature DMA (frequency sweeps at several temperatures).
 
-    The file: a header row of names, then an optional row of units (or units in the names,
-    ``E_stor [MPa]``), then data rows; blank lines and lines starting with ``#`` are skipped; a
-    UTF-8 byte-order mark is accepted. Columns (case-insensitive):
+    Layouts (each documented with an example in ``docs/dma.md``); :func:`jaxroll.io.read_rows`
+    sniffs the encoding (UTF-8 with or without BOM, UTF-16, cp1252), the delimiter (comma,
+    semicolon, tab) and a decimal comma, and reads ``.xls`` / ``.xlsx`` workbooks (extra
+    ``jaxroll[excel]``):
 
-    * frequency: ``f`` / ``freq`` / ``frequency`` / ``omega`` in ``Hz`` or ``rad/s``;
+    * a plain table: a header row of names, then an optional row of units (or units in the
+      names, ``E_stor [MPa]``), then data rows; blank lines and lines starting with ``#`` are
+      skipped;
+    * Netzsch/GABO Eplexor "Exported Data" (sheet or text): names and units in two header rows,
+      ``---`` for missing values;
+    * TA TRIOS text exports: one table per ``[step]`` segment (each a set), the temperature in
+      a column or in the step's name (``Frequency sweep (25.0 °C)``);
+    * Anton Paar RheoCompass exports (UTF-16, decimal commas): one ``Interval data:`` table per
+      interval (each a set), units in brackets.
+
+    Columns (case-insensitive):
+
+    * frequency: ``f`` / ``freq`` / ``frequency`` / ``omega`` / ``Angular Frequency`` in ``Hz``,
+      ``1/s`` or ``rad/s``;
     * tension ``E_stor``, ``E_loss`` (or ``E'``, ``E''``) or shear ``G_stor``, ``G_loss`` (or
-      ``G'``, ``G''``, ``storage_modulus``, ``loss_modulus``) in ``Pa``/``kPa``/``MPa``/``GPa``;
+      ``G'``, ``G''``, ``Storage Modulus``, ``Loss Modulus``) in ``Pa``/``kPa``/``MPa``/``GPa``;
+      or the magnitude ``|E*|`` / ``|G*|`` (``Complex Modulus``) with ``tan delta`` (``Loss
+      Factor``), converted to ``M' = |M*| / sqrt(1 + tan^2 delta)``, ``M'' = M' tan delta``;
     * temperature: ``T`` / ``temp`` / ``temperature`` in ``C`` (``degC``, ``°C``) or ``K``, on
       every row, or per set (on at least one row of each set, the other cells empty);
-    * optional ``Set``: the set (temperature step) of each row; without it rows are grouped by
-      temperature (sets more than 1 K apart).
+    * optional ``Set``: the set (temperature step) of each row; without it (and in a one-table
+      file) rows are grouped by temperature (sets more than 1 K apart).
+
+    Rows whose frequency or moduli are missing (``---``, empty) are skipped with a
+    :class:`jaxroll.DataWarning` naming their lines.
 
     Args:
-        path: the CSV file.
+        path: the file.
         poisson: Poisson's ratio [-] that converts tensile moduli to shear,
             ``G = E / (2 (1 + nu))`` (default 0.5, incompressible: ``G = E/3``). Unused for
             shear data.
@@ -106,34 +159,74 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
         :class:`DMASweeps` (shear moduli [Pa], omega [rad/s], temperatures [K]).
 
     Raises:
-        ValueError: naming the line and column of what is wrong.
+        ValueError: one line naming the line and column of what is wrong, or, for a file that
+            matches no layout, what was found and what was expected.
     """
     if not (0.0 <= poisson <= 0.5):
         raise ValueError(f"poisson must be in [0, 0.5]; got {poisson}")
-    t = read_table(path, _sweep_columns(), units_row="optional", kind="DMA", case_sensitive=False)
-    path = t.path
-    tension = {m for m in ("E", "G") if f"{m}_storage" in t or f"{m}_loss" in t}
-    if len(tension) > 1:
+    raw, blocks = read_blocks(path, _sweep_columns(), min_names=2, kind="DMA")
+    path = raw.path
+    if not blocks:
+        first = [" ".join(c.strip() for c in r if c.strip())[:60] for _, r in raw.rows[:2]]
+        raise ValueError(f"{path}: no DMA table found (read as {raw.describe()}; it begins {first}); expected "
+                         f"{_EXPECTED}")
+    tables = [t for _, t in blocks]
+    modes = {m for t in tables for m in ("E", "G") if any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))}
+    if len(modes) > 1:
         raise ValueError(f"{path}: storage and loss moduli mix tension (E) and shear (G): "
-                         f"{sorted(t.header.values())}")
-    mode = tension.pop() if tension else "G"
-    missing = [r for r, c in (("frequency", "frequency"), ("storage", f"{mode}_storage"), ("loss", f"{mode}_loss"),
-                              ("temperature", "temperature")) if c not in t]
-    if missing:
-        raise ValueError(f"{path}: no column for {missing}; the header has {sorted(t.header.values()) + t.unused} "
-                         f"(expected e.g. f, E_stor, E_loss, T[, Set] or f, G_stor, G_loss, T)")
-    if "set" not in t and np.any(np.isnan(t["temperature"])):
-        k = int(np.argmax(np.isnan(t["temperature"])))
-        raise ValueError(f"{path}, line {t.lines[k]}: missing value in column {t.header['temperature']!r} (without a "
+                         f"{sorted({h for t in tables for h in t.header.values()})}")
+    mode = modes.pop() if modes else "G"
+    parts = []
+    for b, (title, t) in enumerate(blocks):
+        tan, polar = "tan_delta" in t, f"{mode}_complex" in t
+        has_storage = f"{mode}_storage" in t or (polar and tan)
+        has_loss = f"{mode}_loss" in t or (tan and has_storage)
+        title_T = _TITLE_TEMPERATURE.search(title)
+        missing = [r for r, ok in (("frequency", "frequency" in t), ("storage", has_storage), ("loss", has_loss),
+                                   ("temperature", "temperature" in t or title_T)) if not ok]
+        if missing:
+            where = f", line {t.lines[0] - 1}" if len(blocks) > 1 else ""
+            raise ValueError(f"{path}{where}: no column for {missing}; the header has "
+                             f"{sorted(t.header.values()) + t.unused} (expected {_EXPECTED})")
+        storage, loss = _moduli(path, t, mode)
+        if "temperature" in t:
+            T = t["temperature"].copy()
+        else:
+            T = np.full(len(t.lines), np.nan)
+        if title_T and np.all(np.isnan(T)):
+            value, unit = title_T.groups()
+            T[:] = float(value) + (0.0 if unit == "K" else 273.15)
+        if len(blocks) > 1 and "set" not in t:
+            raw_set = np.full(len(t.lines), float(b))
+        else:
+            raw_set = t.get("set")
+        parts.append((t["frequency"], storage, loss, T, raw_set, t.lines))
+    omega, storage, loss, T = (np.concatenate([p[k] for p in parts]) for k in range(4))
+    lines = np.concatenate([p[5] for p in parts])
+    raw_set = None if any(p[4] is None for p in parts) else np.concatenate([p[4] for p in parts])
+    bad = np.isnan(omega) | np.isnan(storage) | np.isnan(loss)
+    if bad.all():
+        raise ValueError(f"{path}: no row gives the frequency, storage and loss moduli (missing values throughout)")
+    if bad.any():
+        warnings.warn(f"{path}: {int(bad.sum())} row(s) with a missing frequency or modulus skipped (lines "
+                      f"{_line_list(lines[bad])})", DataWarning, stacklevel=2)
+        keep = ~bad
+        omega, storage, loss, T, lines = omega[keep], storage[keep], loss[keep], T[keep], lines[keep]
+        raw_set = None if raw_set is None else raw_set[keep]
+    out = (omega < _OMEGA_RANGE[0]) | (omega > _OMEGA_RANGE[1])
+    if out.any():
+        k = int(np.argmax(out))
+        raise ValueError(f"{path}, line {lines[k]}: frequency {omega[k] / (2 * np.pi):.3g} Hz lies outside "
+                         f"{_OMEGA_RANGE[0] / (2 * np.pi):.0e}..{_OMEGA_RANGE[1] / (2 * np.pi):.0e} Hz, where no DMA "
+                         "measures; check the frequency column and its unit")
+    if raw_set is None and np.any(np.isnan(T)):
+        k = int(np.argmax(np.isnan(T)))
+        name = next((t.header["temperature"] for t in tables if "temperature" in t), "temperature")
+        raise ValueError(f"{path}, line {lines[k]}: missing value in column {name!r} (without a "
                          f"Set column every row needs its temperature)")
-    omega = t["frequency"]
     factor = 1.0 / (2.0 * (1.0 + poisson)) if mode == "E" else 1.0
-    storage = t[f"{mode}_storage"] * factor
-    loss = t[f"{mode}_loss"] * factor
-    T = t["temperature"].copy()
-    lines = t.lines
-    if "set" in t:
-        raw_set = t["set"]
+    storage, loss = storage * factor, loss * factor
+    if raw_set is not None:
         labels = np.unique(raw_set, return_inverse=True)[1].ravel()
         for s in range(labels.max() + 1):  # temperature per set: fill the blanks
             m = labels == s
@@ -149,4 +242,60 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     source = f"tension, nu = {poisson:g}" if mode == "E" else "shear"
-    return DMASweeps(omega, storage, loss, T, rank[labels], set_T[order], source)
+    sweeps = DMASweeps(omega, storage, loss, T, rank[labels], set_T[order], source, lines)
+    from .checks import check_sweeps
+
+    for message in check_sweeps(sweeps):
+        warnings.warn(f"{path}: {message}", DataWarning, stacklevel=2)
+    return sweeps
+
+
+def _line_list(lines, n=8):
+    """``'3, 4, 9'`` or ``'3, 4, ... (12 lines)'``."""
+    text = ", ".join(str(int(x)) for x in lines[:n])
+    return text + (f", ... ({len(lines)} lines)" if len(lines) > n else "")
+
+
+def read_master_curve(path, *, T_ref, poisson=0.5):
+    """Read a master curve that is already shifted (reduced frequency and moduli, no
+    temperature sets) into the :class:`jaxroll.materials.MasterCurve` that
+    :func:`jaxroll.fit_prony` takes.
+
+    The file: any layout :func:`read_dma_sweeps` reads (encodings, delimiters, decimal commas,
+    workbooks, units rows or units in the names), with the reduced frequency (``f``, ``omega``,
+    ``frequency``: ``Hz`` or ``rad/s``) and the moduli (``E'``, ``E''`` / ``G'``, ``G''``, or
+    ``|E*|`` and ``tan delta``); a temperature column, if any, is ignored.
+
+    Args:
+        path: the file.
+        T_ref: the reference temperature of the curve [K] (files rarely say it).
+        poisson: converts tensile moduli to shear, ``G = E / (2 (1 + nu))`` (default 0.5).
+
+    Returns:
+        :class:`MasterCurve` sorted by reduced frequency (one set, ``frequency`` None).
+    """
+    from .shift import MasterCurve
+
+    if not (0.0 <= poisson <= 0.5):
+        raise ValueError(f"poisson must be in [0, 0.5]; got {poisson}")
+    raw, blocks = read_blocks(path, _sweep_columns(), min_names=2, kind="master-curve")
+    path = raw.path
+    tables = [t for _, t in blocks]
+    modes = {m for t in tables for m in ("E", "G") if any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))}
+    if not tables or len(modes) != 1 or any("frequency" not in t for t in tables):
+        raise ValueError(f"{path}: no master curve found (read as {raw.describe()}); expected a header row naming the "
+                         "reduced frequency and the storage and loss moduli of one kind (E or G), e.g. "
+                         "'f, E_stor, E_loss' with a units row 'Hz, MPa, MPa'")
+    mode = modes.pop()
+    omega, storage, loss = (np.concatenate(x) for x in zip(*[(t["frequency"], *_moduli(path, t, mode))
+                                                               for t in tables]))
+    bad = np.isnan(omega) | np.isnan(storage) | np.isnan(loss)
+    if bad.all():
+        raise ValueError(f"{path}: no row gives the frequency, storage and loss moduli")
+    if bad.any():
+        warnings.warn(f"{path}: {int(bad.sum())} row(s) with a missing frequency or modulus skipped", DataWarning,
+                      stacklevel=2)
+    factor = 1.0 / (2.0 * (1.0 + poisson)) if mode == "E" else 1.0
+    omega, storage, loss = omega[~bad], storage[~bad] * factor, loss[~bad] * factor
+    order = np.argsort(omega, kind="stable")
+    return MasterCurve(omega[order], storage[order], loss[order], np.zeros(len(omega), int), float(T_ref))

@@ -56,7 +56,7 @@ def run(args) -> int:
     with warnings.catch_warnings():  # reported below, per reason, in CLI terms
         warnings.simplefilter("ignore", jr.ValidityWarning)
         m = jr.resistance_map(mat, shift, layer, radius=args.radius, load=load, temperatures=temperatures,
-                              speeds=speeds, geometry=args.geometry, method=method)
+                              speeds=speeds, geometry=args.geometry, method=method, measured_temperatures=measured)
     m.write_csv(out / "map.csv", unit=unit)
     warn_invalid(m.result, "map")
     H = f"{args.H * 1e3:g} mm"
@@ -93,7 +93,8 @@ def add_parser(sub) -> None:
     mp.add_argument("--nu", type=poisson("--nu"), default=0.5,
                     help="layer Poisson's ratio (0.5; below 0.5 the quasi-static compressible layer, --rho 0)")
     mp.add_argument("--tmin", type=positive("--tmin [K]"), default=None,
-                    help="lowest temperature [K] (default: the material's lowest measured temperature)")
+                    help="lowest temperature [K] (default: the material's lowest measured temperature; points "
+                    "outside the measured range are computed but not valid)")
     mp.add_argument("--tmax", type=positive("--tmax [K]"), default=None,
                     help="highest temperature [K] (default: the material's highest measured temperature)")
     mp.add_argument("--n-temperatures", dest="n_temperatures", type=count("--n-temperatures"), default=25,

@@ -22,21 +22,28 @@ def run(args) -> int:
     t0 = time.perf_counter()
     tell = say(args.progress)
     tell(f"material: reading {args.dma}")
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught:  # data warnings go to stderr and the report
         warnings.simplefilter("always", jr.DataWarning)
         sw = jr.read_dma_sweeps(args.dma, poisson=args.poisson)
+        tell(f"material: shift factors of {sw.n_sets} temperature sets ({args.shift_moduli} moduli), WLF and "
+             "Arrhenius fits")
+        sh = jr.fit_shift_factors(sw, T_ref=args.T_ref, moduli=args.shift_moduli)
+        wlf, arr = jr.fit_wlf(sh, C2=args.wlf_C2), jr.materials.fit_arrhenius(sh)
+        master = jr.master_curve(sw, sh)
+        artifacts = jr.materials.loss_artifacts(master)
+        weights = np.ones((len(master.omega), 2))
+        if args.drop_loss_artifacts:
+            weights[artifacts, 1] = 0.0
+        tell(f"material: Prony fit to {len(master.omega)} master-curve points")
+        pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights)
+    warned = [str(w.message) for w in caught if issubclass(w.category, jr.DataWarning)]
+    warned += [n if "Arrhenius" in n else f"Arrhenius: {n}" for n in arr.notes]
+    warned += [n if "WLF" in n else f"WLF: {n}" for n in wlf.notes if n not in warned]
     for w in caught:
-        print(f"jaxroll material: warning: {w.message}", file=sys.stderr)
-    tell(f"material: shift factors of {sw.n_sets} temperature sets ({args.shift_moduli} moduli), WLF and Arrhenius fits")
-    sh = jr.fit_shift_factors(sw, T_ref=args.T_ref, moduli=args.shift_moduli)
-    wlf, arr = jr.fit_wlf(sh), jr.materials.fit_arrhenius(sh)
-    master = jr.master_curve(sw, sh)
-    artifacts = jr.materials.loss_artifacts(master)
-    weights = np.ones((len(master.omega), 2))
-    if args.drop_loss_artifacts:
-        weights[artifacts, 1] = 0.0
-    tell(f"material: Prony fit to {len(master.omega)} master-curve points")
-    pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights)
+        if not issubclass(w.category, jr.DataWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for message in warned:
+        print(f"jaxroll material: warning: {message}", file=sys.stderr)
     mat = pf.material
     rms_s, rms_l = (float(np.sqrt(np.mean(pf.residuals[weights[:, k] > 0, k] ** 2))) for k in (0, 1))
     hz = ", ".join(f"{f:.4g}" for f in np.unique(np.round(master.frequency[artifacts] / (2 * np.pi), 6)))
@@ -44,30 +51,37 @@ def run(args) -> int:
              + ("left out of the Prony fit)" if args.drop_loss_artifacts else
                 "kept in the Prony fit; --drop-loss-artifacts leaves them out)")) if artifacts.any() else \
         "loss artifacts: none found"
+    decade = np.floor(np.log10(master.omega)).astype(int)  # the fit's rms log residual per decade of reduced omega
+    per_decade = {int(d): [float(np.sqrt(np.mean(pf.residuals[(decade == d) & (weights[:, k] > 0), k] ** 2)))
+                           if np.any((decade == d) & (weights[:, k] > 0)) else None for k in (0, 1)]
+                  for d in np.unique(decade)}
     G0 = float(mat.glassy_modulus())
-    (c1_lo, c1_hi), (c2_lo, c2_hi) = wlf.ci95["C1"], wlf.ci95["C2"]
-    ea_lo, ea_hi = arr.ci95["activation_energy"]
     report = [
         f"DMA: {args.dma}: {len(sw.omega)} points in {sw.n_sets} temperature sets, {sw.set_temperature[0]:.2f}.."
         f"{sw.set_temperature[-1]:.2f} K ({sw.source})",
         f"shift factors: T_ref = {sh.T_ref:.2f} K (set {sh.reference}); log10 a_T {sh.log10_aT[0]:+.2f} at "
         f"{sh.temperature[0]:.2f} K .. {sh.log10_aT[-1]:+.2f} at {sh.temperature[-1]:.2f} K; master curve "
         f"{np.log10(master.omega[0]):.1f}..{np.log10(master.omega[-1]):.1f} decades of reduced omega [rad/s]",
-        f"WLF: C1 = {wlf.params['C1']:.4g} (95 % [{c1_lo:.4g}, {c1_hi:.4g}]), C2 = {wlf.params['C2']:.4g} K "
-        f"(95 % [{c2_lo:.4g}, {c2_hi:.4g}]); rms {wlf.rms:.3f} decades (the law written with the material)",
-        f"Arrhenius: E_a = {arr.params['activation_energy']:.4g} J/mol (95 % [{ea_lo:.4g}, {ea_hi:.4g}]); "
+        f"WLF: C1 = {wlf.params['C1']:.4g} ({wlf.interval('C1')}), C2 = {wlf.params['C2']:.4g} K "
+        f"({wlf.interval('C2')}); rms {wlf.rms:.3f} decades (the law written with the material)",
+        f"Arrhenius: E_a = {arr.params['activation_energy']:.4g} J/mol ({arr.interval('activation_energy')}); "
         f"rms {arr.rms:.3f} decades",
         found,
         f"Prony: {pf.n_terms} terms, tau {float(np.min(mat.tau)):.3g}..{float(np.max(mat.tau)):.3g} s; rms log "
         f"residual {pf.rms:.4f} of the values fitted (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = {float(mat.G_inf):.4g} Pa, "
         f"G_0 = {G0:.4g} Pa (shear)",
-    ]
+        "Prony rms log residual per decade of reduced omega [rad/s] (storage/loss): "
+        + ", ".join(f"1e{d}: " + "/".join("-" if v is None else f"{v:.3f}" for v in sl) for d, sl in per_decade.items()),
+    ] + [f"warning: {m}" for m in warned]
     info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
             float(sw.set_temperature[-1])], "T_ref": sh.T_ref,
-            "WLF": {"C1": wlf.params["C1"], "C2": wlf.params["C2"], "ci95": wlf.ci95, "rms_decades": wlf.rms},
+            "WLF": {"C1": wlf.params["C1"], "C2": wlf.params["C2"], "ci95": _ci(wlf), "rms_decades": wlf.rms,
+                    "degenerate": wlf.degenerate, "C2_fixed": args.wlf_C2 is not None},
             "Arrhenius": {"activation_energy": arr.params["activation_energy"],
-                          "ci95": arr.ci95["activation_energy"], "rms_decades": arr.rms},
+                          "ci95": _ci(arr)["activation_energy"], "rms_decades": arr.rms},
+            "warnings": warned,
             "prony": {"n_terms": pf.n_terms, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+                      "rms_log_per_decade": {f"1e{d}": sl for d, sl in per_decade.items()},
                       "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
                                                    for f in master.frequency[artifacts]}),
                       "loss_artifacts_left_out": bool(args.drop_loss_artifacts and artifacts.any())}}
@@ -98,24 +112,33 @@ def run(args) -> int:
     return 0
 
 
+def _ci(fit):
+    """``{name: [lo, hi]}`` of a shift fit, ``None`` where there is no interval (JSON has no nan)."""
+    return {n: None if np.isnan(lo) else [lo, hi] for n, (lo, hi) in fit.ci95.items()}
+
+
 def add_parser(sub) -> None:
     """The ``material`` subcommand on ``sub`` (argparse subparsers)."""
     mt = sub.add_parser(
         "material", help="raw multi-temperature DMA -> shift factors, WLF, master curve, Prony series, exports",
         description="Read frequency sweeps at several temperatures (CSV: a header row of names, e.g. f, E_stor, "
         "E_loss, T[, Set] or f, G_stor, G_loss, T, then a units row or units in the names: Hz|rad/s, "
-        "Pa|kPa|MPa|GPa, C|K), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
+        "Pa|kPa|MPa|GPa, C|K; any of UTF-8/UTF-16/cp1252, comma/semicolon/tab, decimal comma; Eplexor, TA TRIOS "
+        "and Anton Paar RheoCompass exports; .xls/.xlsx with jaxroll[excel]; see docs/dma.md), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
         "curve at the reference temperature and fit a Prony series to it. Writes material.json and material.csv "
         "(for jaxroll map), material_abaqus.inp (*VISCOELASTIC, TIME=PRONY; *TRS WLF), material_ansys.mac "
         "(TB,PRONY; TB,SHIFT WLF), shift_factors.csv, master_curve.csv, master_curve.png, shift_factors.png and "
         "material_report.txt into --out. Units SI (Pa, s, K).")
-    mt.add_argument("dma", help="DMA CSV (frequency sweeps at several temperatures)")
+    mt.add_argument("dma", help="DMA file (frequency sweeps at several temperatures)")
     mt.add_argument("--poisson", type=poisson("--poisson"), default=0.5,
                     help="Poisson's ratio converting tensile moduli E to shear, G = E / (2 (1 + nu)); unused for "
                     "shear data (0.5)")
     mt.add_argument("--T-ref", dest="T_ref", type=positive("--T-ref [K]"), default=None,
                     help="reference temperature [K]: the set nearest to it is the reference (default: the set "
                     "nearest the middle of the measured range)")
+    mt.add_argument("--wlf-C2", dest="wlf_C2", type=positive("--wlf-C2 [K]"), default=None,
+                    help="hold the WLF C2 [K] and fit C1 alone, for data that determine only C1/C2 (the report says "
+                    "when: a degenerate fit); universal: 51.6 K + T_ref - T_g")
     mt.add_argument("--shift-moduli", dest="shift_moduli", choices=["storage", "loss", "both"], default="storage",
                     help="moduli compared when shifting the sets (storage: robust to loss artifacts such as an "
                     "upturn at the top frequency)")
