@@ -366,9 +366,9 @@ class AutoGrid(eqx.Module):
         if cpr is None:
             cpr = SPHERE_CELLS_PER_RADIUS
             if math.isfinite(H):
-                cpr = max(cpr, int(math.ceil(2.0 * r.max() / H)))
+                cpr = max(cpr, _cells(2.0 * r.max() / H))
         dx = float(r.min()) / cpr
-        window = 2 * int(math.ceil((self.window_radii or SPHERE_WINDOW_RADII) * r.max() / dx)) + 1
+        window = 2 * _cells((self.window_radii or SPHERE_WINDOW_RADII) * r.max() / dx) + 1
         memory = float(speeds.max()) * _longest_time(material)
         period = self.period
         if isinstance(period, str):
@@ -392,9 +392,9 @@ class AutoGrid(eqx.Module):
             zeta = np.outer(speeds * t_max, 1.0 / a0)  # V tau / a0 over the envelope
             cpr = max(line_cells_per_radius(float(z)) for z in np.ravel(zeta))
             if math.isfinite(H):
-                cpr = max(cpr, int(math.ceil(2.0 * a.max() / H)))
+                cpr = max(cpr, _cells(2.0 * a.max() / H))
         dx = float(a.min()) / cpr
-        window = 2 * int(math.ceil((self.window_radii or LINE_WINDOW_RADII) * a.max() / dx))
+        window = 2 * _cells((self.window_radii or LINE_WINDOW_RADII) * a.max() / dx)
         period = self.period
         if isinstance(period, str):
             L_need = self.period_factor * max(4.0 * a.max(), float(speeds.max()) * t_max)
@@ -419,6 +419,13 @@ def line_cells_per_radius(zeta: float) -> int:
     return 100
 
 
+def _cells(x: float) -> int:
+    """``ceil(x)`` for a cell count, blind to round-off: ``r / (r / 12)`` may come out as
+    ``12 (1 + 1e-16)``, and a plain ceil would then add a cell (a new window size, hence a new
+    compiled program) for a value that changed nothing but the last bit."""
+    return int(math.ceil(round(x, 9)))
+
+
 def _next_pow2(n):
     return 1 << max(1, int(math.ceil(math.log2(max(n, 2)))))
 
@@ -435,10 +442,16 @@ def _envelope(loads, speeds):
     return loads, speeds
 
 
+@eqx.filter_jit
+def _estimated_sizes(material, layer, radius, loads, geometry):
+    # compiled once per (material type, shapes, geometry): eager, the root find's while loop would
+    # be traced and compiled anew on every call
+    return jax.vmap(lambda P: estimate_contact_size(material, layer, radius, P, geometry))(loads)
+
+
 def _sizes(material, layer, radius, loads, geometry):
     """Estimated contact sizes [m] of every load (host NumPy)."""
-    r = np.asarray(jax.vmap(lambda P: estimate_contact_size(material, layer, radius, P, geometry))(
-        jnp.asarray(loads)))
+    r = np.asarray(_estimated_sizes(material, layer, jnp.asarray(radius, float), jnp.asarray(loads), geometry))
     if not np.all(np.isfinite(r) & (r > 0)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
     return r

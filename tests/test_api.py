@@ -174,6 +174,28 @@ def test_second_grid_call_with_new_values_compiles_nothing():
     assert _compiles(lambda: one(90.0, 2e-3)) == 0
 
 
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
+def test_automatic_grid_resized_for_new_values_compiles_nothing():
+    # an AutoGrid re-sized for a new modulus keeps its window (cells per radius fixed, one
+    # load): the new cell size is a traced value, so the program is reused; the window once
+    # came out a cell wider from round-off in ceil(1.25 r / (r / 12)) (G0 = 3.1 MPa: 33
+    # instead of 31 cells), which recompiled everything
+    layer = jr.Layer(0.03)
+    for geometry, load in (("sphere", 100.0), ("cylinder", 1e4)):
+        windows = {jr.Full().resolve(jr.StandardLinearSolid(G0, 0.25, 1.0), layer, radius=R, loads=[load],
+                                     speeds=[0.01], geometry=geometry).grid.window
+                   for G0 in np.linspace(2e6, 4e6, 41)}
+        assert len(windows) == 1, (geometry, windows)
+    method = jr.Full(grid=jr.AutoGrid(cells_per_radius=4))
+
+    def run(G0):
+        jax.block_until_ready(jr.rolling_resistance(jr.StandardLinearSolid(G0, 0.25, 1.0), layer, radius=R,
+                                                    load=100.0, speed=0.01, method=method, throw=False).value)
+
+    run(3.0e6)
+    assert _compiles(lambda: run(3.1e6)) == 0
+
+
 def test_method_objects_are_static_hashable_configuration():
     a = jr.Full(grid=jr.FixedGrid(2.5e-4, 55, period=0.2, n_terms=500), edge_smoothing=0.25)
     b = jr.Full(grid=jr.FixedGrid(2.5e-4, 55, period=0.2, n_terms=500), edge_smoothing=0.25)
