@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -53,7 +54,7 @@ class ResistanceMap:
 
 
 def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",
-                   method="direct", measured_temperatures=None) -> ResistanceMap:
+                   method=None, measured_temperatures=None) -> ResistanceMap:
     """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
     ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
     ``dR_r/dH`` from ``jax.grad``, all points in one compiled, vmapped program.
@@ -63,9 +64,13 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         layer: :class:`jaxroll.Layer` (its ``H`` [m] is the thickness differentiated).
         radius [m], load [N, or N/m for a cylinder]; temperatures [K], speeds [m/s]: 1D axes.
         geometry: ``"sphere"`` or ``"cylinder"``.
-        method: ``"direct"`` (default: milliseconds per point with any Prony spectrum) or a
-            method resolved over the whole map (``method.resolve(...)``; the periodic full
-            models need periods of ~20 V tau_max, impractical for spectra of 20 decades).
+        method: a method object or shortcut; default :func:`jaxroll.methods.default_method`
+            (the full model on an infinite layer). A method with an
+            :class:`~jaxroll.grids.AutoGrid` gets one grid for the whole map: the union of the
+            grids resolved at the lowest and the highest temperature. The periodic full models
+            need periods of ~20 V tau_max, impractical for spectra of 20 decades; ``"direct"``
+            is a screening choice (milliseconds per point, see docs/methods.md for its error
+            against the full model).
         measured_temperatures: ``(T_min, T_max)`` [K] the material was measured over (e.g. the
             ``temperature_range`` that ``jaxroll material`` writes into ``material.json``):
             points outside are computed but not valid, ``RESULTS.outside_measured_temperatures``
@@ -74,12 +79,19 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
     import time
 
     from .engines.layer import Layer
+    from .grids import union
     from .materials.material import at_temperature
+    from .methods import as_method, default_method
     from .result import RESULTS
     from .rolling import rolling_resistance
 
     T = jnp.asarray(np.asarray(temperatures, float))
     V = jnp.asarray(np.asarray(speeds, float))
+    method = as_method(default_method(geometry) if method is None else method)
+    if method.needs_resolution(geometry):  # one grid for the map: the union of the coldest and hottest
+        method = eqx.tree_at(lambda m: m.grid, method, union([
+            method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=[load], speeds=V,
+                           geometry=geometry).grid for Ti in (float(np.min(T)), float(np.max(T)))]))
 
     def one(Ti, Vi, H):
         lay = Layer(H=H, rho=layer.rho, nu=layer.nu)

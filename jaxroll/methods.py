@@ -39,7 +39,8 @@ from .geometry import as_geometry, check_geometry
 from .grids import AutoGrid, FixedGrid, check_memory
 from .result import RollingResult
 
-__all__ = ["AbstractMethod", "Direct", "DirectElastic", "Full", "Slices", "as_method", "METHOD_NAMES"]
+__all__ = ["AbstractMethod", "Direct", "DirectElastic", "Full", "Slices", "as_method", "default_method",
+           "METHOD_NAMES", "FIT_EDGE_SMOOTHING"]
 
 #: The full model of each geometry: a module with ``kernel_builder``, ``solve`` and ``result``.
 _FULL_MODELS = {"sphere": sphere3d, "cylinder": cylinder}
@@ -339,6 +340,23 @@ class Slices(_GridMethod):
 
 
 METHOD_NAMES = ("direct", "full", "PD", "PP", "SP")
+
+#: ``Full.edge_smoothing`` of the default fitting method: smooth in every parameter at a bias
+#: that vanishes with the cell size (the documented recipe with the sphere's 12 cells per radius).
+FIT_EDGE_SMOOTHING = 0.5
+
+
+def default_method(geometry="sphere", *, fit=False) -> AbstractMethod:
+    """The method used wherever none is named (every front door, :func:`jaxroll.resistance_map`,
+    :func:`jaxroll.fit_material`, the command line): the full model of ``geometry``, 3D for a
+    sphere, 2D plane strain for a cylinder, on an infinite layer (aperiodic) with an
+    :class:`~jaxroll.grids.AutoGrid`. ``fit=True``: the same with the smoothed contact edge
+    (``edge_smoothing=FIT_EDGE_SMOOTHING``), whose R_r is smooth in the fitted parameters.
+
+    The direct method and the slices stay explicit screening choices (docs/methods.md lists
+    their measured errors against the full model)."""
+    check_geometry(geometry)
+    return Full(edge_smoothing=FIT_EDGE_SMOOTHING if fit else None)
 
 
 def as_method(method) -> AbstractMethod:

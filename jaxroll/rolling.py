@@ -31,19 +31,10 @@ from .engines.layer import Layer
 from .materials.material import AbstractMaterial
 from .engines.contact_size import estimate_contact_size
 from .geometry import check_geometry
-from .methods import AbstractMethod, Full, Slices, as_method
+from .methods import as_method, default_method
 from .result import RESULTS, RollingResult, SolverError, ValidityWarning, check_validity, raise_on_failure
 
-__all__ = ["rolling_resistance", "rolling_resistance_grid", "DEFAULT_METHODS", "ValidityWarning"]
-
-#: The method used when none is given, per geometry: the most accurate method that costs under
-#: 1 s per point on 2 CPU cores (``benchmarks/default_method.py``; the README's method table).
-#: Cylinders: the full 2D model (exact contact, 0.8 % from the exact half-space solution, ~10 ms
-#: per point). Spheres: the SP slices (within +-3 % of the full 3D model at 1e-3..1e-2 m/s, up
-#: to +-15 % at 0.1-1 m/s, ~10-25 ms per point); the periodic full 3D model costs 0.1-0.35 s
-#: per point up to 0.1 m/s but seconds and gigabytes at 1 m/s (its period grows with V tau).
-#: The direct method (-15 to -40 % near and above the R_r peak) is for screening.
-DEFAULT_METHODS: dict[str, AbstractMethod] = {"sphere": Slices(algorithm="SP"), "cylinder": Full()}
+__all__ = ["rolling_resistance", "rolling_resistance_grid", "ValidityWarning"]
 
 _AUTOGRID_TRACED = (
     "{method} sizes its grid (jr.AutoGrid) from concrete input values, but the inputs are traced "
@@ -69,7 +60,7 @@ def _prepare(method, material, layer, radius, loads, speeds, geometry):
     """The method to run (resolved and memory-checked), after the host checks of every concrete
     input; and whether the inputs are traced (then the checks go into the program)."""
     check_geometry(geometry)
-    method = as_method(DEFAULT_METHODS[geometry] if method is None else method)
+    method = as_method(default_method(geometry) if method is None else method)
     _check_models(material, layer)
     check_roller_values(radius, loads, speeds)
     traced = _traced(material, layer, radius, loads, speeds)
@@ -164,8 +155,10 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
         geometry: ``"sphere"`` or ``"cylinder"``.
         method: a method object (:class:`jaxroll.Direct`, :class:`jaxroll.Full`,
             :class:`jaxroll.Slices`) or a shortcut ``"direct"``, ``"full"``, ``"PD"``, ``"PP"``,
-            ``"SP"``; default ``DEFAULT_METHODS[geometry]`` (SP slices for spheres, the full 2D model for cylinders). Under ``jit``/``vmap``/``grad`` a method
-            with a grid must be resolved first (``method.resolve(...)``).
+            ``"SP"``; default :func:`jaxroll.methods.default_method` (the full model: 3D for a
+            sphere, 2D for a cylinder, infinite layer, automatic grid). Under
+            ``jit``/``vmap``/``grad`` a method with a grid must be resolved first
+            (``method.resolve(...)``).
         throw: raise if the result is not trustworthy (``result != RESULTS.successful``: a
             solver failure or a validity check): :class:`jaxroll.SolverError`, one line with
             the code's name and reason (under a user's ``jax.jit``/``vmap``/``grad``, JAX's

@@ -231,7 +231,8 @@ def _rolling_fit(seed):
     V, P, y = _direct_data(200 + seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # G0-tau-f correlation ~0.999 (expected)
-        return fit_material(RollingData(V, P, y), initial=jr.StandardLinearSolid(2e6, 0.4, 0.6), layer=LAYER, radius=R)
+        return fit_material(RollingData(V, P, y), initial=jr.StandardLinearSolid(2e6, 0.4, 0.6), layer=LAYER, radius=R,
+                            method="direct")
 
 
 def _rolling_coverage(seeds):
@@ -253,7 +254,7 @@ def test_rolling_direct_interval_coverage_full():
 
 
 def test_repeated_fits_reuse_the_compiled_model(monkeypatch):
-    kw = dict(layer=LAYER, radius=R)
+    kw = dict(layer=LAYER, radius=R, method="direct")
     traced = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)
@@ -275,7 +276,7 @@ def test_direct_method_on_the_shipped_full_3d_set_is_flagged_as_misfit():
     with pytest.warns(IdentifiabilityWarning, match="correlated"):  # G0-tau-f ~0.998 from R_r alone
         with pytest.warns(jr.MisfitWarning, match="does not describe the data within their errors"):
             fit = fit_material(data, initial=jr.StandardLinearSolid(3e6, 0.25, 1.0), layer=LAYER, radius=R,
-                               absolute_sigma=True)
+                               method="direct", absolute_sigma=True)
     assert fit.converged and fit.sigma_mode == "absolute"
     assert "residuals weighted by the given sigma" in fit.report()
     # a correct model gives chi^2/dof = 1 +- 0.19 (57 dof); P(> 2) ~ 1e-7: the misfit is detected

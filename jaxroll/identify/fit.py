@@ -306,6 +306,8 @@ class FitResult:
         warnings: identifiability messages (also issued as :class:`IdentifiabilityWarning`).
         jacobian: Jacobian of ``residuals`` with respect to the log-parameters at the optimum
             (columns in ``names`` order; forward-mode AD through the model).
+        method: the rolling-resistance method of the fit, with the grid it ended on (``None``
+            for a DMA-only fit).
     """
 
     material: object
@@ -325,6 +327,7 @@ class FitResult:
     warnings: list
     jacobian: np.ndarray | None = None
     sigma_mode: str = "relative"
+    method: object = None
 
     def report(self) -> str:
         """A plain-text fit report."""
@@ -463,16 +466,32 @@ def _check_problem(rolling, dma, initial, free, layer, radius, geometry, method,
         return None
     if layer is None or radius is None:
         raise ValueError("rolling-resistance data need layer= and radius=")
-    from ..methods import as_method
+    from ..methods import as_method, default_method
 
-    method = as_method(method)
+    method = as_method(default_method(geometry, fit=True) if method is None else method)
     method.check_geometry(geometry)
-    if method.needs_resolution(geometry):
-        raise ValueError(f"{type(method).__name__} sizes its grid from the inputs, which a fit varies: resolve it "
-                         f"once over the data, method = method.resolve(initial, layer, radius=..., "
-                         f"loads=measured_loads, speeds=measured_speeds, geometry=...), or give a "
-                         f"jr.FixedGrid")
     return method
+
+
+#: Largest factor by which the grid resolved at the fitted parameters may differ from the grid
+#: of the fit (cell size or window width, either way) before :func:`fit_material` re-resolves
+#: the grid and refits once from the fitted point.
+REGRID_FACTOR = 1.25
+
+
+def _resolve_for_fit(method, material, layer, radius, rolling, geometry):
+    """``method`` with its :class:`~jaxroll.grids.AutoGrid` resolved over the data envelope
+    (every measured speed and load) for ``material`` and ``layer`` (concrete values)."""
+    return method.resolve(material, layer, radius=radius, loads=np.asarray(rolling.load),
+                          speeds=np.asarray(rolling.speed), geometry=geometry)
+
+
+def _grid_moved(old, new) -> bool:
+    """Whether the cell size or the window width [m] of grid ``new`` differs from ``old`` by
+    more than :data:`REGRID_FACTOR`."""
+    ratios = (float(new.spacing) / float(old.spacing),
+              float(new.spacing) * new.window / (float(old.spacing) * old.window))
+    return any(max(r, 1 / r) > REGRID_FACTOR for r in ratios)
 
 
 def _host_functions(problem, model, data, progress):
@@ -596,7 +615,7 @@ def fit_material(
     layer=None,
     radius=None,
     geometry="sphere",
-    method="direct",
+    method=None,
     free=None,
     shift=None,
     bounds=None,
@@ -622,14 +641,15 @@ def fit_material(
         layer: :class:`jaxroll.Layer` (required with rolling data; ``"H"`` may be free).
         radius: roller radius [m] (required with rolling data).
         geometry, method: passed to :func:`jaxroll.rolling_resistance` (a method object or a
-            shortcut string; default ``"direct"``). The material parameters are traced during
-            the fit, so a method with a grid must be resolved first
-            (``jr.Full().resolve(initial, layer, radius=..., loads=..., speeds=...)`` or a
-            :class:`jaxroll.FixedGrid`); the full model is then evaluated on the table of the
-            distinct speeds x loads (:func:`jaxroll.rolling_resistance_grid`). For
-            multi-parameter full-model fits use ``jr.Full(grid, edge_smoothing=0.25)`` (0.25 at
-            the paper's grid, 0.5 on coarser ones): the exact discrete R_r wiggles with the
-            contact set and the iteration stalls on it (fitting/README.md).
+            shortcut string). Default: ``jaxroll.methods.default_method(geometry, fit=True)``,
+            the full model with the smoothed contact edge (the exact discrete R_r wiggles with
+            the contact set and the iteration stalls on it; fitting/README.md). A method with an
+            :class:`~jaxroll.grids.AutoGrid` is resolved here over the data envelope (every
+            measured speed and load) at ``initial``; if the grid resolved at the fitted
+            parameters differs by more than :data:`REGRID_FACTOR` in cell size or window width,
+            it is resolved there once more and the fit restarts from the fitted point. A
+            :class:`jaxroll.FixedGrid` is used as given. The full model is evaluated on the
+            table of the distinct speeds x loads (:func:`jaxroll.rolling_resistance_grid`).
         free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``);
             default: the material's own parameters (``G0, tau, f`` for a standard linear solid,
             ``G_inf, G, tau`` for a generalized Maxwell material).
@@ -668,11 +688,27 @@ def fit_material(
     n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
     if n_res < params.size:
         raise ValueError(f"{n_res} residuals cannot determine {params.size} parameters")
-    problem = _Problem(params, None if rolling is None else float(radius), geometry, method,
-                       None if jac_step is None else float(jac_step))
-    u, converged, cost, r, J, starts = _multistart(
-        problem, model, _data_arrays(rolling, dma, method), solver=solver, n_starts=n_starts,
-        spread_decades=spread_decades, seed=seed, max_steps=max_steps, rtol=rtol, progress=progress)
+    auto = method if method is not None and method.needs_resolution(geometry) else None
+    if auto is not None:
+        method = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry)
+
+    def run(method, model, n_starts):
+        params = _Params.of(model, free, bounds)
+        problem = _Problem(params, None if rolling is None else float(radius), geometry, method,
+                           None if jac_step is None else float(jac_step))
+        out = _multistart(problem, model, _data_arrays(rolling, dma, method), solver=solver, n_starts=n_starts,
+                          spread_decades=spread_decades, seed=seed, max_steps=max_steps, rtol=rtol,
+                          progress=progress)
+        return params, out
+
+    params, (u, converged, cost, r, J, starts) = run(method, model, n_starts)
+    if auto is not None:  # the fitted contact left the envelope the grid was resolved for: once more
+        material, lay, sh = params.build(jnp.asarray(params.logp_and_slope(u)[0]), model)
+        again = _resolve_for_fit(auto, material, lay, radius, rolling, geometry)
+        if _grid_moved(method.grid, again.grid):
+            method, model = again, (material, lay, sh)
+            params, (u, converged, cost, r, J, more) = run(method, model, 1)
+            starts = starts + more
     logp = params.logp_and_slope(u)[0]
     values, stderr, ci, cov, corr, sd_log = _uncertainty(params, logp, r, J, absolute_sigma)
     names = params.names_flat()
@@ -686,5 +722,5 @@ def fit_material(
     return FitResult(material=material, layer=lay, shift=sh, params=values, stderr=stderr, ci95=ci, covariance=cov,
                      correlation=corr, names=names, converged=bool(converged), residuals=np.asarray(r),
                      cost=float(cost), reduced_chi2=float(np.sum(r**2)) / dof, starts=starts, warnings=messages,
-                     jacobian=J,
+                     jacobian=J, method=method,
                      sigma_mode=("absolute" if absolute_sigma else "scaled") if have_sigma else "relative")

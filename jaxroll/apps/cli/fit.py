@@ -55,14 +55,10 @@ def run(args) -> int:
             raise ValueError(f"--wlf: expected three numbers C1,C2,T_ref, got {args.wlf!r}") from None
         shift = jr.WLF(C1=c1, C2=c2, T_ref=tref)
     method = method_from_args(args, fit=True)
-    if data is not None and method.needs_resolution(args.geometry):
-        raise ValueError(f"--method {method_name(args, fit=True)} computes on a grid, which a fit must keep fixed while the material "
-                         f"varies: give --spacing and --window (and --period), e.g. --spacing 2.5e-4 --window 55 "
-                         f"--period 0.2")
     fit = jfit.fit_material(data, dma, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
                             geometry=args.geometry, method=method, free=free, shift=shift,
                             n_starts=args.starts, seed=args.seed, solver=args.solver,
-                            progress=args.progress or (args.progress is None and method_name(args, fit=True) != "direct"))
+                            progress=args.progress or (args.progress is None and method_name(args) != "direct"))
     report = fit.report()
     (out / "fit_report.txt").write_text(report + "\n")
     params = {

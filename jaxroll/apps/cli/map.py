@@ -6,7 +6,6 @@ import time
 import warnings
 from pathlib import Path
 
-import equinox as eqx
 import numpy as np
 
 from ...geometry import Geometry
@@ -24,7 +23,6 @@ def _material_info(path):
 def run(args) -> int:
     import jaxroll as jr
     from jaxroll.apps import plot
-    from jaxroll.grids import union
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -46,10 +44,6 @@ def run(args) -> int:
     layer = jr.Layer(H=args.H, rho=args.rho, nu=args.nu)
     name = method_name(args)
     method = method_from_args(args)
-    if method.needs_resolution(args.geometry):  # one grid for the map: the union of the coldest and hottest
-        method = eqx.tree_at(lambda m: m.grid, method, union([
-            method.resolve(jr.at_temperature(mat, shift, T), layer, radius=args.radius, loads=[load], speeds=speeds,
-                           geometry=args.geometry).grid for T in (tmin, tmax)]))
     say(args.progress or (args.progress is None and name != "direct"))(
         f"map: {len(temperatures)} temperatures x {len(speeds)} speeds, {args.geometry}, method {name} (one "
         f"compiled program: compilation, then every point with dR/dT and dR/dH)")
@@ -103,9 +97,7 @@ def add_parser(sub) -> None:
     mp.add_argument("--vmax", type=positive("--vmax [m/s]"), default=10.0, help="highest speed [m/s] (10)")
     mp.add_argument("--n-speeds", dest="n_speeds", type=count("--n-speeds"), default=25,
                     help="number of log-spaced speeds (25)")
-    method_args(mp, default="direct: milliseconds per point with both gradients for a measured Prony spectrum; "
-                 "the full and slice models take it too, on an infinite layer, at 10-100 ms per point")
-    mp.set_defaults(method="direct")
+    method_args(mp)
     progress_args(mp, None)
     mp.add_argument("--out", default="jaxroll-map", help="output folder (jaxroll-map)")
     mp.set_defaults(func=run)
