@@ -1,4 +1,4 @@
-"""Generate the example identification data sets in fitting/data/ (seeded, reproducible).
+"""Generate the example identification data sets of jaxroll.datasets (jaxroll/datasets/; seeded, reproducible).
 
 * synthetic_sphere.csv: rolling resistance of a rigid sphere (R = 2 cm) on a 30 mm quasi-static
   incompressible cover (rho = 0) of a standard linear solid (G0 = 3 MPa, tau = 0.25 s, f = 1),
@@ -16,7 +16,7 @@
 The generating model, resolution, seed and true parameters are also written as ``#`` comment
 lines at the top of synthetic_sphere.csv (jaxroll.identify.fit.read_rolling_csv skips them).
 
-Usage: python fitting/make_synthetic.py [--method full|direct] [--spacing 2.5e-4] [--out fitting/data]
+Usage: python fitting/make_synthetic.py [--method full|direct] [--spacing 2.5e-4] [--out jaxroll/datasets]
 Run time (2 cores): about 15-30 s for the full-model set at the default resolution.
 """
 
@@ -121,7 +121,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--method", default="full")
     ap.add_argument("--spacing", type=float, default=SPACING, help="full model cell size [m] (paper 2.5e-4)")
-    ap.add_argument("--out", default=str(Path(__file__).parent / "data"))
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "jaxroll" / "datasets"),
+                    help="output folder (default: the package's jaxroll/datasets/)")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -311,16 +311,14 @@ def test_fit_missing_data_file_is_one_line_error(tmp_path, capsys):
 
 # ------------------------------------------------------------------- DMA -> material -> map
 
-DMA_FILE = "fitting/data/pyvisco_freq_user_raw.csv"
+DMA_FILE = str(jr.datasets.path("pyvisco_freq_user_raw.csv"))
 
 
 @pytest.fixture(scope="module")
 def material_dir(tmp_path_factory):
     """``jaxroll material`` on the shipped DMA file (once for the tests below)."""
-    from pathlib import Path
-
     out = tmp_path_factory.mktemp("material")
-    data = Path(__file__).resolve().parents[1] / DMA_FILE
+    data = DMA_FILE
     assert main(["material", str(data), "--T-ref", "298.15", "--out", str(out)]) == 0
     return data, out
 
@@ -452,3 +450,19 @@ def test_material_reports_and_optionally_drops_the_loss_artifacts(material_dir, 
     np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
     info = json.loads((tmp_path / "material.json").read_text())["info"]["prony"]
     assert info["loss_artifacts_hz"] == [100.0] and info["loss_artifacts_left_out"] is True
+
+
+def test_datasets_lists_and_copies_the_shipped_files(tmp_path, capsys):
+    """``jaxroll datasets`` lists every shipped file with its licence; with names it copies them
+    byte for byte; an unknown name is a one-line error (exit 2)."""
+    assert main(["datasets"]) == 0
+    listing = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in listing] == list(jr.datasets.names())
+    assert all("licence" in line for line in listing)
+    assert main(["datasets", "rolling_example.csv", "LICENSE-pyvisco", "--out", str(tmp_path)]) == 0
+    for name in ("rolling_example.csv", "LICENSE-pyvisco"):
+        assert (tmp_path / name).read_bytes() == jr.datasets.path(name).read_bytes()
+    capsys.readouterr()
+    assert main(["datasets", "nonexistent.csv", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown dataset 'nonexistent.csv'" in err and len(err.strip().splitlines()) == 1

@@ -1,5 +1,5 @@
 """``jaxroll`` command line: one module per command (``demo``, ``curve``, ``sweep``, ``fit``,
-``material``, ``map``, ``reproduce``), each with ``add_parser(sub)`` and ``run(args)``; shared option
+``material``, ``map``, ``reproduce``, ``datasets``), each with ``add_parser(sub)`` and ``run(args)``; shared option
 types in :mod:`~jaxroll.apps.cli.options`. Units are SI throughout (m, N, Pa, s, kg/m^3)."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ import sys
 
 import equinox as eqx
 
-from . import curve, demo, fit, map, material, reproduce, sweep
+from . import curve, datasets, demo, fit, map, material, reproduce, sweep
 from .options import Parser, runtime_message
 
 __all__ = ["build_parser", "main"]
 
-COMMANDS = (demo, curve, sweep, fit, material, map, reproduce)
+COMMANDS = (demo, curve, sweep, fit, material, map, reproduce, datasets)
 
 
 def build_parser() -> argparse.ArgumentParser:
