@@ -21,7 +21,6 @@ Run time (2 cores): about 15-30 s for the full-model set at the default resoluti
 """
 
 import argparse
-import csv
 import math
 import time
 from pathlib import Path
@@ -70,14 +69,9 @@ def full_grid(material, layer, speeds, loads, method):
 
 
 def _write(path, header, units, rows, comments=()):
-    with open(path, "w", newline="") as fh:
-        for c in comments:
-            fh.write(f"# {c}\n")
-        w = csv.writer(fh)
-        w.writerow(header)
-        w.writerow(units)
-        for r in rows:
-            w.writerow([f"{x:.8g}" for x in r])
+    """A CSV with LF line ends, 8 significant digits (jaxroll.io.write_table)."""
+    columns = [list(c) for c in zip(*rows)]
+    jr.io.write_table(path, dict(zip(header, columns)), units, formats=".8g", comments=comments)
 
 
 def rolling_grid(method, speeds, loads, rho=RHO):

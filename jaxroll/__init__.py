@@ -26,6 +26,7 @@ from .engines.layer import Layer
 # --- methods, grids, results and the front doors ------------------------------------------
 from .grids import AutoGrid, FixedGrid
 from .methods import Direct, DirectElastic, Full, Slices
+from ._numerics import PlausibilityWarning
 from .result import RESULTS, RollingResult, SolverError, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
 from .sweep import Grid, sweep, sweep_mesh
@@ -49,7 +50,7 @@ __all__ = [
     "Full", "Direct", "DirectElastic", "Slices", "AutoGrid", "FixedGrid",
     # front doors and results
     "rolling_resistance", "rolling_resistance_grid", "sweep", "sweep_mesh", "Grid", "resistance_map",
-    "ResistanceMap", "RollingResult", "RESULTS", "SolverError", "ValidityWarning",
+    "ResistanceMap", "RollingResult", "RESULTS", "SolverError", "ValidityWarning", "PlausibilityWarning",
     # identification
     "read_dma_sweeps", "fit_shift_factors", "fit_wlf", "master_curve", "fit_prony", "save_material",
     "load_material", "fit_material", "RollingData", "DMAData", "FitResult",

@@ -393,7 +393,7 @@ def test_map_reports_invalid_points_in_one_line_per_reason(material_dir, tmp_pat
     heat map."""
     _, mdir = material_dir
     assert main(["map", "--material", str(mdir / "material.json"), "--H", "0.0005", "--n-temperatures", "2",
-                 "--n-speeds", "2", "--out", str(tmp_path)]) == 0
+                 "--n-speeds", "2", "--quiet", "--out", str(tmp_path)]) == 0  # --quiet: warnings only
     captured = capsys.readouterr()
     err = captured.err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("jaxroll map: warning: 4 of 4 points not valid (outside_pressure_model)")
@@ -466,3 +466,34 @@ def test_datasets_lists_and_copies_the_shipped_files(tmp_path, capsys):
     assert main(["datasets", "nonexistent.csv", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "unknown dataset 'nonexistent.csv'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_unit_slips_print_one_line_each_once(tmp_path, capsys):
+    """The issue's slip: ``jaxroll fit ... --radius 20 --H 30`` (mm typed for m) fits a G0 of a few
+    Pa. The command line prints each plausibility warning once, as one line without a source
+    line: radius and H before the fit, the fitted G0 after it."""
+    assert main(["fit", str(jr.datasets.path("synthetic_sphere.csv")), "--radius", "20", "--H", "30", "--starts", "1",
+                 "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    slips = [line for line in err if "PlausibilityWarning" in line or "SI units" in line]
+    assert len(slips) == 2, err
+    assert slips[0].startswith("jaxroll fit: warning: fit_material: radius R = 20 m is above 5 m")
+    assert "layer thickness H = 30 m is above 1 m" in slips[0]
+    assert slips[1].startswith("jaxroll fit: warning: fit_material: fitted: relaxed shear modulus G0 = ")
+    assert not any("warnings.warn" in line or ".py:" in line for line in err)
+
+
+def test_every_option_has_help_and_the_texts_render_cleanly():
+    """Each option of each subcommand carries a help text, and no rendered help shows argparse's
+    escape ``%%`` (a literal percent sign in a description is written ``%``)."""
+    import argparse
+
+    from jaxroll.apps.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, p in sub.choices.items():
+        missing = [a.option_strings or a.dest for a in p._actions if not a.help]
+        assert not missing, (name, missing)
+        assert "%%" not in p.format_help(), name
+        assert p.get_default("progress") in (True, None), name  # progress on by default where offered

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 import equinox as eqx
 
@@ -34,6 +35,23 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _print_warnings_once(command, categories) -> None:
+    """Within the caller's ``warnings.catch_warnings()``: every warning prints as one stderr line
+    ``jaxroll COMMAND: warning: MESSAGE`` (no file name, no source line), each text once; the
+    library's own ``categories`` always reach that printer (the others follow the filters)."""
+    seen = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = f"jaxroll {command}: warning: {' '.join(str(message).split())}"
+        if text not in seen:
+            seen.add(text)
+            print(text, file=sys.stderr, flush=True)
+
+    for category in categories:
+        warnings.simplefilter("always", category)
+    warnings.showwarning = show
+
+
 def main(argv=None) -> int:
     import matplotlib
 
@@ -54,7 +72,10 @@ def main(argv=None) -> int:
     import jaxroll as jr
 
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            _print_warnings_once(args.command, (jr.PlausibilityWarning, jr.ValidityWarning, jr.DataWarning,
+                                                jr.IdentifiabilityWarning, jr.MisfitWarning))
+            return args.func(args)
     except (ValueError, OSError, jr.SolverError, jax.errors.JaxRuntimeError, eqx.EquinoxRuntimeError) as err:
         if args.debug:
             raise

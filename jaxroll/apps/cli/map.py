@@ -9,7 +9,7 @@ from pathlib import Path
 import equinox as eqx
 import numpy as np
 
-from .options import count, method_args, method_from_args, method_name, nonnegative, poisson, positive, progress_args, say, warn_invalid
+from .options import count, geometry_arg, method_args, method_from_args, method_name, nonnegative, poisson, positive, progress_args, say, warn_invalid
 
 
 def _material_info(path):
@@ -49,7 +49,7 @@ def run(args) -> int:
         method = eqx.tree_at(lambda m: m.grid, method, union([
             method.resolve(jr.at_temperature(mat, shift, T), layer, radius=args.radius, loads=[load], speeds=speeds,
                            geometry=args.geometry).grid for T in (tmin, tmax)]))
-    say(args.progress or (args.progress is None and name != "direct"))(
+    say(args.progress)(
         f"map: {len(temperatures)} temperatures x {len(speeds)} speeds, {args.geometry}, method {name} (one "
         f"compiled program: compilation, then every point with dR/dT and dR/dH)")
     with warnings.catch_warnings():  # reported below, per reason, in CLI terms
@@ -82,7 +82,7 @@ def add_parser(sub) -> None:
         "rolling_resistance, dR_dT, dR_dH, valid, result) and map.png (heat maps with contours) into --out. "
         "Units SI (m, N or N/m, K, m/s).")
     mp.add_argument("--material", required=True, help="material.json (or material.csv) written by jaxroll material")
-    mp.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
+    geometry_arg(mp)
     mp.add_argument("--radius", type=positive("--radius [m]"), default=0.01, help="roller radius [m] (0.01)")
     mp.add_argument("--load", type=positive("--load [N or N/m]"), default=None,
                     help="load [N; N/m for cylinders] (default 10 N for a sphere, 1e4 N/m for a cylinder)")
@@ -104,6 +104,6 @@ def add_parser(sub) -> None:
     method_args(mp, default="direct: milliseconds per point with both gradients for a measured Prony spectrum; "
                  "the full and slice models take it too, on an infinite layer, at 10-100 ms per point")
     mp.set_defaults(method="direct")
-    progress_args(mp, None)
+    progress_args(mp)
     mp.add_argument("--out", default="jaxroll-map", help="output folder (jaxroll-map)")
     mp.set_defaults(func=run)

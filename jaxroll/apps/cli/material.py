@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import sys
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -21,12 +19,7 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     tell = say(args.progress)
-    tell(f"material: reading {args.dma}")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", jr.DataWarning)
-        sw = jr.read_dma_sweeps(args.dma, poisson=args.poisson)
-    for w in caught:
-        print(f"jaxroll material: warning: {w.message}", file=sys.stderr)
+    sw = jr.read_dma_sweeps(args.dma, poisson=args.poisson)  # DataWarnings: one line each (cli.main)
     tell(f"material: shift factors of {sw.n_sets} temperature sets ({args.shift_moduli} moduli), WLF and Arrhenius fits")
     sh = jr.fit_shift_factors(sw, T_ref=args.T_ref, moduli=args.shift_moduli)
     wlf, arr = jr.fit_wlf(sh), jr.materials.fit_arrhenius(sh)
@@ -104,7 +97,7 @@ def add_parser(sub) -> None:
         "material", help="raw multi-temperature DMA -> shift factors, WLF, master curve, Prony series, exports",
         description="Read frequency sweeps at several temperatures (CSV: a header row of names, e.g. f, E_stor, "
         "E_loss, T[, Set] or f, G_stor, G_loss, T, then a units row or units in the names: Hz|rad/s, "
-        "Pa|kPa|MPa|GPa, C|K), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
+        "Pa|kPa|MPa|GPa, C|K), fit the shift factors, WLF and Arrhenius laws (95 % intervals), build the master "
         "curve at the reference temperature and fit a Prony series to it. Writes material.json and material.csv "
         "(for jaxroll map), material_abaqus.inp (*VISCOELASTIC, TIME=PRONY; *TRS WLF), material_ansys.mac "
         "(TB,PRONY; TB,SHIFT WLF), shift_factors.csv, master_curve.csv, master_curve.png, shift_factors.png and "
@@ -127,6 +120,6 @@ def add_parser(sub) -> None:
                     "standard deviations in >= 3/4 of the sets; the shipped file's 100 Hz); always reported")
     mt.add_argument("--fe-poisson", dest="fe_poisson", type=poisson("--fe-poisson", incompressible=False),
                     default=0.49, help="instantaneous Poisson's ratio written to the Abaqus/ANSYS files (< 0.5; 0.49)")
-    progress_args(mt, False)
+    progress_args(mt)
     mt.add_argument("--out", default="jaxroll-material", help="output folder (jaxroll-material)")
     mt.set_defaults(func=run)

@@ -54,5 +54,5 @@ def add_parser(sub) -> None:
                    "reference always runs)")
     r.add_argument("--speeds", type=count("--speeds"), default=None, help="number of log-spaced speeds (23; quick 7)")
     r.add_argument("--loads", type=count("--loads"), default=None, help="number of loads per case (15; quick 3)")
-    progress_args(r, True)
+    progress_args(r)
     r.set_defaults(func=run)
