@@ -197,7 +197,7 @@ def test_reproduce_passes_selection_and_prints_tables(tmp_path, monkeypatch, cap
     assert s.spacing == rp.QUICK.spacing and "quick" in s.label
     out = capsys.readouterr().out
     # PP mean error (+10 % + 0 + 0 - 10 %)/4 = 0; mean |error| 5 %; speed factor = 2.0 s / 0.01 s = 200
-    assert "| H = 5 mm, R = 2 cm | PP (slices) | +0.0 % | 5.0 % | 10.0 % |" in out
+    assert "| H = 5 mm, R = 2 cm | PP (slices) | 4 of 4 | +0.0 % | 5.0 % | 10.0 % |" in out  # all valid
     row = next(line for line in out.splitlines() if line.startswith("| PP (slices) |"))
     assert "| 200 |" in row and "20.0 s" in row and row.rstrip().endswith("| 161 |")
     assert (tmp_path / "report.md").exists() and (tmp_path / "rr_H5mm.png").exists()

@@ -21,7 +21,7 @@ from ..materials import material as _material
 
 __all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
            "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "plot_master_fit",
-           "plot_resistance_map", "plot_shift_factors", "close"]
+           "plot_resistance_map", "plot_shift_factors", "masked_mean", "close"]
 
 
 def _save(fig, path):
@@ -43,6 +43,16 @@ def _figure(ax, nrows=1, ncols=1, *, squeeze=True, **subplots_kw):
     if squeeze:
         return fig, axes[0] if axes.size == 1 else axes
     return fig, axes.reshape(nrows, ncols)
+
+
+def masked_mean(e, axis):
+    """Mean of the finite entries of ``e`` along ``axis`` (NaN where there are none) and their
+    count: NaN marks points left out (e.g. not valid)."""
+    e = np.asarray(e, float)
+    ok = np.isfinite(e)
+    n = ok.sum(axis=axis)
+    total = np.where(ok, e, 0.0).sum(axis=axis)
+    return np.where(n > 0, total / np.maximum(n, 1), np.nan), n
 
 
 def close(fig):
@@ -175,8 +185,8 @@ def plot_fit(speeds, loads, measured, fitted, *, unit="N", ax=None, path=None):
     return _save(fig, path)
 
 
-def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N", title=None, ax=None,
-                           path=None):
+def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N", title=None, valid=None,
+                           reference_valid=None, ax=None, path=None):
     """R_r against speed (log axis) per load: one panel per method, the method as lines and the
     reference (e.g. the full 3D model) as circles.
 
@@ -185,6 +195,9 @@ def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N
         reference: ``(n_loads, n_speeds)`` [unit].
         estimates: method name -> ``(n_loads, n_speeds)`` array [unit] (may be empty: the
             reference alone is drawn).
+        valid: method name -> boolean ``(n_loads, n_speeds)``, optional: the method's points
+            that are not valid get a red cross; reference_valid: the same for the reference
+            (a black plus). Each kind has a legend entry with its count.
     """
     speeds, loads, reference = np.asarray(speeds), np.asarray(loads), np.asarray(reference)
     n = max(1, len(estimates))
@@ -205,6 +218,14 @@ def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N
         handles = [plt.Line2D([], [], color="0.3", marker="o", ms=3, mfc="none", ls="", label="reference")]
         if est is not None:
             handles.insert(0, plt.Line2D([], [], color="0.3", label=name))
+        grid_v = np.broadcast_to(speeds, reference.shape)
+        for mask, values, style, label in ((reference_valid, reference, dict(marker="+", color="k"), "reference"),
+                                           ((valid or {}).get(name), est, dict(marker="x", color="red"), name)):
+            if mask is None or values is None or np.all(mask):
+                continue
+            bad = ~np.asarray(mask, bool)
+            ax.semilogx(grid_v[bad], np.asarray(values)[bad], ls="", ms=6, **style)
+            handles.append(plt.Line2D([], [], ls="", ms=6, **style, label=f"{label} not valid ({int(bad.sum())})"))
         ax.legend(handles=handles, fontsize=7)
     for ax in axes[:, 0]:
         ax.set_ylabel(f"rolling resistance R_r [{unit}]")
@@ -221,14 +242,17 @@ def plot_relative_error(speeds, loads, errors: dict, *, title=None, ax=None, pat
     over loads, log axis) and against load (averaged over speeds), as in [ZG] figs. 3-8 (b).
 
     ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-]
-    (``estimate/reference - 1``).
+    (``estimate/reference - 1``); NaN marks a point left out (not valid), which the means skip
+    and the legend counts.
     """
     speeds, loads = np.asarray(speeds), np.asarray(loads)
     fig, (ax1, ax2) = _figure(ax, 1, 2, figsize=(10, 3.8))
     for name, e in errors.items():
-        e = 100.0 * np.asarray(e)
-        ax1.semilogx(speeds, e.mean(axis=0), "o-", ms=3, label=name)
-        ax2.plot(loads, e.mean(axis=1), "o-", ms=3, label=name)
+        e = 100.0 * np.asarray(e, float)
+        left_out = int(np.sum(~np.isfinite(e)))
+        label = f"{name} ({left_out} of {e.size} points not valid, left out)" if left_out else name
+        ax1.semilogx(speeds, masked_mean(e, 0)[0], "o-", ms=3, label=label)
+        ax2.plot(loads, masked_mean(e, 1)[0], "o-", ms=3, label=label)
     ax1.set(xlabel="speed V [m/s]", ylabel="mean relative error [%]", title="against speed (mean over loads)")
     ax2.set(xlabel="load P [N]", ylabel="mean relative error [%]", title="against load (mean over speeds)")
     for ax in (ax1, ax2):
@@ -257,23 +281,30 @@ def plot_error_maps(speeds, loads, errors: dict, *, title=None, limit=None, ax=N
     """Relative error [%] over the speed x load grid, one panel per method, on a diverging
     colormap centred at 0 (red: the method overestimates, blue: underestimates).
 
-    ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-]; ``limit``: colour
-    range +-limit [%] (default: the largest absolute error, shared by all panels).
+    ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-], NaN for points left
+    out (not valid: grey cells, with a legend entry); ``limit``: colour range +-limit [%]
+    (default: the largest absolute error, shared by all panels).
     """
     from matplotlib.colors import TwoSlopeNorm
+    from matplotlib.patches import Patch
 
     speeds, loads = np.asarray(speeds), np.asarray(loads)
     n = max(1, len(errors))
     fig, axes = _figure(ax, 1, n, figsize=(3.4 * n + 1.2, 3.4), squeeze=False, layout="constrained")
     vals = [100.0 * np.asarray(e) for e in errors.values()]
-    lim = limit if limit is not None else max([float(np.nanmax(np.abs(v))) for v in vals] + [1e-3])
+    lim = limit if limit is not None else max([float(np.max(np.abs(v[np.isfinite(v)]), initial=0.0)) for v in vals]
+                                              + [1e-3])
     norm = TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim)
     mesh = None
     v_edges, p_edges = _cell_edges(speeds, log=True), _cell_edges(loads, log=False)
     for ax, (name, v) in zip(axes.flat, zip(errors, vals)):
-        mesh = ax.pcolormesh(v_edges, p_edges, v, cmap="RdBu_r", norm=norm)
+        mesh = ax.pcolormesh(v_edges, p_edges, np.ma.masked_invalid(v), cmap="RdBu_r", norm=norm)
         ax.set_xscale("log")
         ax.set(title=name, xlabel="speed V [m/s]")
+        left_out = int(np.sum(~np.isfinite(v)))
+        if left_out:
+            ax.set_facecolor("0.75")  # masked cells show the background
+            ax.legend(handles=[Patch(facecolor="0.75", label=f"not valid ({left_out})")], fontsize=7, loc="lower left")
     axes[0, 0].set_ylabel("load P [N]")
     if mesh is not None:
         fig.colorbar(mesh, ax=list(axes.flat), label="relative error [%]", shrink=0.9, pad=0.02)

@@ -47,7 +47,7 @@ from ..io import write_table
 from ..result import RESULTS
 
 __all__ = ["Case", "CASES", "Settings", "FULL", "QUICK", "PAPER_TIMES", "PAPER_FACTORS", "Reproduction", "run",
-           "write_outputs", "reproduce", "METHOD_NAMES"]
+           "write_outputs", "reproduce", "METHOD_NAMES", "error_stats"]
 
 #: Material of the examples ([ZG] sec. 3.4): G0 [Pa], tau [s], f [-].
 G0, TAU, F = 3.0e6, 0.25, 1.0
@@ -146,6 +146,30 @@ class CaseResult:
     def relative_error(self, method) -> np.ndarray:
         """(estimate - reference)/reference, shape (n_loads, n_speeds) [-]."""
         return self.methods[method].values / self.reference.values - 1.0
+
+    def both_valid(self, method) -> np.ndarray:
+        """True where the method and the full 3D reference are both valid (RESULTS code 0)."""
+        return (self.methods[method].status == 0) & (self.reference.status == 0)
+
+    def valid_error(self, method) -> np.ndarray:
+        """:meth:`relative_error` where :meth:`both_valid`, NaN elsewhere: every statistic and
+        error figure of the report uses only those points."""
+        return np.where(self.both_valid(method), self.relative_error(method), np.nan)
+
+
+def error_stats(e) -> dict:
+    """Statistics of a NaN-masked relative-error array (NaN: left out): ``n`` points used of
+    ``total``, ``mean``, ``mean_abs``, ``max_abs`` [-] and the index ``at`` of the largest
+    (NaN and None when no point is left)."""
+    e = np.asarray(e, float)
+    ok = np.isfinite(e)
+    n = int(ok.sum())
+    if n == 0:
+        return dict(n=0, total=e.size, mean=np.nan, mean_abs=np.nan, max_abs=np.nan, at=None)
+    a = np.where(ok, np.abs(e), -1.0)
+    at = np.unravel_index(int(np.argmax(a)), e.shape)
+    return dict(n=n, total=e.size, mean=float(np.mean(e[ok])), mean_abs=float(np.mean(np.abs(e[ok]))),
+                max_abs=float(a[at]), at=at)
 
 
 @dataclasses.dataclass
@@ -338,10 +362,10 @@ def run(settings: Settings = FULL, *, progress=sys.stderr) -> Reproduction:
             log(f"{case.label}: {METHOD_NAMES[m]} ...")
             r = _run(compared_method(m, s), case, loads, speeds, cache)
             res[m] = r
-            err = r.values / ref.values - 1.0
+            st = error_stats(np.where((r.status == 0) & (ref.status == 0), r.values / ref.values - 1.0, np.nan))
             log(f"{case.label}: {METHOD_NAMES[m]} done: run {_fmt_time(r.run_s)}, compile {_fmt_time(r.compile_s)}; "
-                f"mean error {100 * np.mean(err):+.1f} %, mean |error| {100 * np.mean(np.abs(err)):.1f} %; "
-                f"{_invalid(r.status)}")
+                f"over the {st['n']} of {st['total']} points valid in both: mean error {100 * st['mean']:+.1f} %, "
+                f"mean |error| {100 * st['mean_abs']:.1f} %; {_invalid(r.status)}")
         out.append(CaseResult(case, loads, speeds, ref, res))
     pressure = _pressure_fields(s, log) if s.pressure_fields else None
     wall = time.perf_counter() - t0
@@ -383,15 +407,18 @@ def timing_table(rep: Reproduction) -> str:
 
 def accuracy_table(rep: Reproduction) -> str:
     """Markdown table: mean signed, mean absolute and largest relative error of each method
-    against the full 3D model, per case."""
-    rows = ["| case | method | mean error | mean abs. error | max abs. error | at (P, V) of max |",
-            "|---|---|---|---|---|---|"]
+    against the full 3D model, per case, over the points where both are valid (counted)."""
+    rows = ["| case | method | points valid in both | mean error | mean abs. error | max abs. error | at (P, V) of max |",
+            "|---|---|---|---|---|---|---|"]
     for cr in rep.cases:
         for m in cr.methods:
-            e = cr.relative_error(m)
-            i, j = np.unravel_index(np.argmax(np.abs(e)), e.shape)
-            rows.append(f"| {cr.case.label} | {METHOD_NAMES[m]} | {100 * np.mean(e):+.1f} % | "
-                        f"{100 * np.mean(np.abs(e)):.1f} % | {100 * np.abs(e[i, j]):.1f} % | "
+            st = error_stats(cr.valid_error(m))
+            if st["n"] == 0:
+                rows.append(f"| {cr.case.label} | {METHOD_NAMES[m]} | 0 of {st['total']} | - | - | - | - |")
+                continue
+            i, j = st["at"]
+            rows.append(f"| {cr.case.label} | {METHOD_NAMES[m]} | {st['n']} of {st['total']} | "
+                        f"{100 * st['mean']:+.1f} % | {100 * st['mean_abs']:.1f} % | {100 * st['max_abs']:.1f} % | "
                         f"({cr.loads[i]:g} N, {cr.speeds[j]:.2g} m/s) |")
     return "\n".join(rows)
 
@@ -400,6 +427,7 @@ def write_outputs(rep: Reproduction, out) -> list:
     """Write figures (PNG), ``report.md``, ``results.csv`` and ``timing.csv`` into ``out``;
     return the written paths."""
     from . import plot
+    from .plot import masked_mean
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -408,11 +436,12 @@ def write_outputs(rep: Reproduction, out) -> list:
     for cr in rep.cases:
         k = cr.case.key
         est = {METHOD_NAMES[m]: r.values for m, r in cr.methods.items()}
-        err = {METHOD_NAMES[m]: cr.relative_error(m) for m in cr.methods}
+        err = {METHOD_NAMES[m]: cr.valid_error(m) for m in cr.methods}  # NaN where either is not valid
         name = f"rr_{k}.png"
         f = plot.plot_method_comparison(cr.speeds, cr.loads, cr.reference.values, est, unit="N",
                                         title=f"{cr.case.label}: methods (lines) vs full 3D (circles)",
-                                        path=out / name)
+                                        valid={METHOD_NAMES[m]: r.status == 0 for m, r in cr.methods.items()},
+                                        reference_valid=cr.reference.status == 0, path=out / name)
         figs[k] = [name]
         plot.close(f)
         if err:
@@ -482,7 +511,9 @@ def write_outputs(rep: Reproduction, out) -> list:
         f"per axis (paper: 0.2 m, 0.25 mm, 500). Slices PD/PP/SP: {s.n_slices} slices, 2D period {s.period} m on "
         f"{s.slice_cells} cells (window {s.slice_window} cells). Direct: aperiodic limit (rtol {s.direct_rtol:g}), "
         "automatic stationary pressure (Jaffar thick layer, thin layer for 10 um).",
-        "Relative error = method / full 3D - 1 (positive: the method overestimates R_r).",
+        "Relative error = method / full 3D - 1 (positive: the method overestimates R_r). Every statistic and "
+        "error figure uses only the points where both the method and the full 3D model are valid (RESULTS code 0; "
+        "counts given); the comparison figures mark the points that are not valid.",
         "",
         "## Timing, in the form of [ZG] Table 1",
         "",
@@ -505,18 +536,22 @@ def write_outputs(rep: Reproduction, out) -> list:
             if np.any(r.status != 0):
                 lines += [f"{name}: {_invalid(r.status)} (column `result` of results.csv).", ""]
         if cr.methods:
-            e_v = {m: 100 * np.mean(cr.relative_error(m), axis=0) for m in cr.methods}
-            lines += ["Mean relative error [%] against V (averaged over loads):", "",
+            def cell(mean, n):
+                return f"{100 * mean:+.1f} ({n})" if n else "- (0)"
+
+            e_v = {m: masked_mean(cr.valid_error(m), axis=0) for m in cr.methods}
+            lines += ["Mean relative error [%] against V over the loads valid for the method and the full 3D "
+                      "model (their count in parentheses):", "",
                       "| V [m/s] | " + " | ".join(METHOD_NAMES[m] for m in cr.methods) + " |",
                       "|---" * (len(cr.methods) + 1) + "|"]
             for j, V in enumerate(cr.speeds):
-                lines.append(f"| {V:.3g} | " + " | ".join(f"{e_v[m][j]:+.1f}" for m in cr.methods) + " |")
-            e_p = {m: 100 * np.mean(cr.relative_error(m), axis=1) for m in cr.methods}
-            lines += ["", "Mean relative error [%] against P (averaged over speeds):", "",
+                lines.append(f"| {V:.3g} | " + " | ".join(cell(e_v[m][0][j], e_v[m][1][j]) for m in cr.methods) + " |")
+            e_p = {m: masked_mean(cr.valid_error(m), axis=1) for m in cr.methods}
+            lines += ["", "Mean relative error [%] against P over the speeds valid for both (count):", "",
                       "| P [N] | " + " | ".join(METHOD_NAMES[m] for m in cr.methods) + " |",
                       "|---" * (len(cr.methods) + 1) + "|"]
             for i, P in enumerate(cr.loads):
-                lines.append(f"| {P:g} | " + " | ".join(f"{e_p[m][i]:+.1f}" for m in cr.methods) + " |")
+                lines.append(f"| {P:g} | " + " | ".join(cell(e_p[m][0][i], e_p[m][1][i]) for m in cr.methods) + " |")
             lines.append("")
     lines += ["## Material and pressure fields", "", "![master curves](master_curves.png)", ""]
     if rep.pressure is not None:
