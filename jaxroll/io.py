@@ -51,13 +51,13 @@ UNITS = {
 }
 
 
-#: Typical SI magnitudes (median of a column) per quantity of :data:`UNITS` (forces have none:
-#: rolling resistances span mN..kN): a column outside
+#: Typical SI magnitudes (median of a column) per quantity of :data:`UNITS`: a column outside
 #: its range whose numbers would fall inside it in another accepted unit probably has the wrong
-#: unit in its units row (a :class:`~jaxroll.PlausibilityWarning` names the likelier unit).
+#: unit in its units row (a :class:`DataWarning` names the likelier unit). Forces have none
+#: (rolling resistances span mN..kN); DMA moduli are checked per temperature set where the
+#: DMA readers check their data.
 TYPICAL = {
     "speed": (1e-4, 10.0),  # m/s: rolling tests and machines, 0.1 mm/s .. 36 km/h
-    "modulus": (1e4, 1e11),  # Pa: soft gels .. glassy polymers
     "temperature": (150.0, 500.0),  # K: -123 .. 227 degC
 }
 
@@ -69,10 +69,8 @@ def _quantity(unit):
 
 
 def _check_magnitudes(path, label, unit, conv, values):
-    """A :class:`~jaxroll.PlausibilityWarning` when the median of a column's SI ``values``
-    is untypical of its quantity (:data:`TYPICAL`) but typical in another unit of it."""
-    from ._numerics import PlausibilityWarning
-
+    """A :class:`DataWarning` when the median of a column's SI ``values`` is untypical of its
+    quantity (:data:`TYPICAL`) but typical in another unit of it: a units-row slip."""
     q = _quantity(unit)
     v = values[np.isfinite(values)]
     if q not in TYPICAL or not v.size:
@@ -86,7 +84,7 @@ def _check_magnitudes(path, label, unit, conv, values):
     if likely:
         warnings.warn(f"{path}: column {label!r} in {unit} has a median of {median:.3g} in SI units, untypical "
                       f"of a {q} ({lo:g}..{hi:g}); the numbers look like {likely[0]}: check the units row",
-                      PlausibilityWarning, stacklevel=4)
+                      DataWarning, stacklevel=4)
 
 
 @dataclasses.dataclass(frozen=True)
