@@ -92,7 +92,7 @@ def main():
         sys.path.insert(0, str(Path(__file__).parent.parent / "fitting"))
         import make_synthetic as ms
 
-        data = jr.identify.read_rolling_csv(Path(__file__).parent.parent / "fitting" / "data" / "synthetic_sphere.csv")
+        data = jr.identify.read_rolling_csv(jr.datasets.path("synthetic_sphere.csv"))
         method = ms.full_method(args.spacing)
         print(f"\n# full 3D fit of the shipped 60-point set, method {method}")
         for label in ("first (compile + run)", "warm repeat"):

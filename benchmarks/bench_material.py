@@ -15,7 +15,7 @@ import numpy as np
 
 import jaxroll as jr
 
-DATA = Path(__file__).resolve().parents[1] / "fitting" / "data" / "pyvisco_freq_user_raw.csv"
+DATA = Path(__file__).resolve().parents[1] / "jaxroll" / "datasets" / "pyvisco_freq_user_raw.csv"
 
 
 def steps():

@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 import jaxroll as jr  # noqa: E402
 from jaxroll.apps import plot  # noqa: E402
 
-DATA = Path(__file__).resolve().parent / "data" / "pyvisco_freq_user_raw.csv"
+DATA = jr.datasets.path("pyvisco_freq_user_raw.csv")
 
 
 def main():

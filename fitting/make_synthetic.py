@@ -1,4 +1,4 @@
-"""Generate the example identification data sets in fitting/data/ (seeded, reproducible).
+"""Generate the example identification data sets of jaxroll.datasets (jaxroll/datasets/; seeded, reproducible).
 
 * synthetic_sphere.csv: rolling resistance of a rigid sphere (R = 2 cm) on a 30 mm quasi-static
   incompressible cover (rho = 0) of a standard linear solid (G0 = 3 MPa, tau = 0.25 s, f = 1),
@@ -16,12 +16,11 @@
 The generating model, resolution, seed and true parameters are also written as ``#`` comment
 lines at the top of synthetic_sphere.csv (jaxroll.identify.fit.read_rolling_csv skips them).
 
-Usage: python fitting/make_synthetic.py [--method full|direct] [--spacing 2.5e-4] [--out fitting/data]
+Usage: python fitting/make_synthetic.py [--method full|direct] [--spacing 2.5e-4] [--out jaxroll/datasets]
 Run time (2 cores): about 15-30 s for the full-model set at the default resolution.
 """
 
 import argparse
-import csv
 import math
 import time
 from pathlib import Path
@@ -70,14 +69,9 @@ def full_grid(material, layer, speeds, loads, method):
 
 
 def _write(path, header, units, rows, comments=()):
-    with open(path, "w", newline="") as fh:
-        for c in comments:
-            fh.write(f"# {c}\n")
-        w = csv.writer(fh)
-        w.writerow(header)
-        w.writerow(units)
-        for r in rows:
-            w.writerow([f"{x:.8g}" for x in r])
+    """A CSV with LF line ends, 8 significant digits (jaxroll.io.write_table)."""
+    columns = [list(c) for c in zip(*rows)]
+    jr.io.write_table(path, dict(zip(header, columns)), units, formats=".8g", comments=comments)
 
 
 def rolling_grid(method, speeds, loads, rho=RHO):
@@ -121,7 +115,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--method", default="full")
     ap.add_argument("--spacing", type=float, default=SPACING, help="full model cell size [m] (paper 2.5e-4)")
-    ap.add_argument("--out", default=str(Path(__file__).parent / "data"))
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "jaxroll" / "datasets"),
+                    help="output folder (default: the package's jaxroll/datasets/)")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

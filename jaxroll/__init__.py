@@ -26,6 +26,7 @@ from .engines.layer import Layer
 # --- methods, grids, results and the front doors ------------------------------------------
 from .grids import AutoGrid, FixedGrid
 from .methods import Direct, DirectElastic, Full, Slices
+from ._numerics import PlausibilityWarning
 from .geometry import Geometry
 from .result import RESULTS, GridSolution, RollingResult, SolverError, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
@@ -38,8 +39,9 @@ from .materials import fit_prony, fit_shift_factors, fit_wlf, load_material, mas
 from .identify.fit import DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material
 
 # --- subpackages and modules reachable as attributes ---------------------------------------
-from . import apps, contact, engines, grids, identify, io, materials, methods, reference  # noqa: E402
+from . import apps, contact, datasets, engines, grids, identify, io, materials, methods, reference  # noqa: E402
 
+#: the package version (the one source: pyproject.toml reads it)
 __version__ = "0.1.0"
 
 __all__ = [
@@ -50,10 +52,11 @@ __all__ = [
     # front doors and results
     "rolling_resistance", "rolling_resistance_grid", "sweep", "sweep_mesh", "Grid", "resistance_map",
     "ResistanceMap", "RollingResult", "GridSolution", "RESULTS", "Geometry", "SolverError", "ValidityWarning",
+    "PlausibilityWarning",
     # identification
     "read_dma_sweeps", "fit_shift_factors", "fit_wlf", "master_curve", "fit_prony", "save_material",
     "load_material", "fit_material", "RollingData", "DMAData", "FitResult",
     "DataWarning", "IdentifiabilityWarning", "MisfitWarning",
     # subpackages
-    "apps", "contact", "engines", "grids", "identify", "io", "materials", "methods", "reference",
+    "apps", "contact", "datasets", "engines", "grids", "identify", "io", "materials", "methods", "reference",
 ]

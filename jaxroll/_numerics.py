@@ -16,13 +16,16 @@ naming the value); traced values (under a user's ``jax.jit``, ``jax.vmap``, ``ja
 :func:`check_input` inside the compiled program (``equinox.error_if``, a host callback). The
 front doors check concrete inputs on the host and trace their programs under
 ``input_checks(False)``, so those programs hold no callbacks: JAX's persistent compilation
-cache only stores programs without host callbacks.
+cache only stores programs without host callbacks. Values the rules allow but that lie far
+outside the physical range of rolling problems (:data:`PLAUSIBLE`: likely unit slips) give a
+:class:`PlausibilityWarning` from :func:`check_plausible`, on the host only.
 """
 
 from __future__ import annotations
 
 import contextlib
 import contextvars
+import warnings
 
 import equinox as eqx
 import jax
@@ -31,7 +34,8 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["as_float", "check_input", "check_x64", "input_checks", "newton_root", "NewtonInfo", "roller_inputs",
+__all__ = ["as_float", "check_input", "check_plausible", "check_x64", "input_checks", "newton_root", "NewtonInfo",
+           "PLAUSIBLE", "PlausibilityWarning", "roller_inputs",
            "to_complex", "where_safe"]
 
 
@@ -121,6 +125,43 @@ def check_roller_values(radius, load, speed) -> None:
         bad = ~test(v)
         if np.any(bad):
             raise ValueError(f"{name} {sym} [{unit}] must be {rule}; got {_describe(v[bad] if v.ndim else v)}")
+
+
+class PlausibilityWarning(UserWarning):
+    """An input is allowed but far outside the physical range of rolling-resistance problems,
+    most likely a unit slip (mm for m, MPa for Pa, mm/s for m/s): jaxroll works in SI units."""
+
+
+#: Plausible ranges of concrete inputs (SI): (name, symbol, unit, lowest, highest, likely slip).
+#: A value outside is computed as given, with a :class:`PlausibilityWarning`.
+PLAUSIBLE = {
+    "radius": ("radius", "R", "m", 1e-4, 5.0, "a length in mm?"),
+    "H": ("layer thickness", "H", "m", 0.0, 1.0, "a length in mm?"),
+    "G0": ("relaxed shear modulus", "G0", "Pa", 1e4, np.inf, "a modulus in MPa or kPa?"),
+    "speed": ("speed", "V", "m/s", 0.0, 100.0, "a speed in mm/s or km/h?"),
+}
+
+
+def check_plausible(where: str, *, stacklevel: int = 3, **values) -> None:
+    """One :class:`PlausibilityWarning` (one line) naming every concrete value outside its
+    :data:`PLAUSIBLE` range; ``values``: ``radius`` [m], ``H`` [m], ``G0`` [Pa], ``speed``
+    [m/s] (scalars or arrays; ``None`` and traced values are skipped; an infinite ``H`` is a
+    half-space, not a slip). ``stacklevel``: of the warning, 3 points at the caller's caller.
+    Host side only: never called inside a compiled program."""
+    slips = []
+    for key, x in values.items():
+        if x is None or any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(x)):
+            continue
+        name, sym, unit, lo, hi, hint = PLAUSIBLE[key]
+        v = np.asarray(x, dtype=float).ravel()
+        v = v[np.isfinite(v)]
+        bad = v[(v < lo) | (v > hi)] if lo > 0 else v[v > hi]
+        if bad.size:
+            side = f"above {hi:g}" if bad.max() > hi else f"below {lo:g}"
+            slips.append(f"{name} {sym} = {_describe(bad[0] if bad.size == 1 else bad)} {unit} is {side} {unit} "
+                         f"({hint} jaxroll works in SI units)")
+    if slips:
+        warnings.warn(f"{where}: " + "; ".join(slips), PlausibilityWarning, stacklevel=stacklevel)
 
 
 def roller_inputs(radius, load, speed):

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Column", "DataWarning", "MISSING", "RawTable", "Table", "UNITS", "read_blocks", "read_rows", "read_table",
-           "write_table"]
+__all__ = ["Column", "DataWarning", "MISSING", "RawTable", "Table", "TYPICAL", "UNITS", "read_blocks", "read_rows",
+           "read_table", "write_table"]
 
 
 class DataWarning(UserWarning):
@@ -51,6 +51,42 @@ UNITS = {
     "time": {"s": (1.0, 0.0)},
     "dimensionless": {"-": (1.0, 0.0), "": (1.0, 0.0), "1": (1.0, 0.0)},
 }
+
+
+#: Typical SI magnitudes (median of a column) per quantity of :data:`UNITS`: a column outside
+#: its range whose numbers would fall inside it in another accepted unit probably has the wrong
+#: unit in its units row (a :class:`DataWarning` names the likelier unit). Forces have none
+#: (rolling resistances span mN..kN); DMA moduli are checked per temperature set where the
+#: DMA readers check their data.
+TYPICAL = {
+    "speed": (1e-4, 10.0),  # m/s: rolling tests and machines, 0.1 mm/s .. 36 km/h
+    "temperature": (150.0, 500.0),  # K: -123 .. 227 degC
+}
+
+
+def _quantity(unit):
+    """The :data:`UNITS` quantity ``unit`` belongs to (``None`` if none or several)."""
+    hits = [q for q, table in UNITS.items() if _conversion(table, unit) is not None]
+    return hits[0] if len(hits) == 1 else None
+
+
+def _check_magnitudes(path, label, unit, conv, values):
+    """A :class:`DataWarning` when the median of a column's SI ``values`` is untypical of its
+    quantity (:data:`TYPICAL`) but typical in another unit of it: a units-row slip."""
+    q = _quantity(unit)
+    v = values[np.isfinite(values)]
+    if q not in TYPICAL or not v.size:
+        return
+    lo, hi = TYPICAL[q]
+    median = float(np.median(v))
+    if lo <= median <= hi:
+        return
+    written = (median - conv[1]) / conv[0]
+    likely = [u for u, (scale, offset) in UNITS[q].items() if lo <= written * scale + offset <= hi]
+    if likely:
+        warnings.warn(f"{path}: column {label!r} in {unit} has a median of {median:.3g} in SI units, untypical "
+                      f"of a {q} ({lo:g}..{hi:g}); the numbers look like {likely[0]}: check the units row",
+                      DataWarning, stacklevel=4)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -489,6 +525,8 @@ def _read_block(raw, rows, columns, *, units_row, kind, case_sensitive, warn_unu
             raise ValueError(f"{path}, line {uline if has_units_row else hline}: unit {unit!r} of column {header[j]!r} "
                              f"not understood{hint}; expected one of {sorted(spec.units)}")
         out[spec.name] = _convert(path, body, j, header[j], spec, unit, conv)
+        if spec.units is not None:
+            _check_magnitudes(path, header[j], unit, conv, out[spec.name])
         out_units[spec.name], out_header[spec.name] = unit, header[j]
     return Table(out, out_units, out_header, np.array([line for line, _ in body]), unused,
                  raw.comments, path)

@@ -11,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._numerics import check_plausible
 from .io import write_table
 
 
@@ -36,6 +37,31 @@ class ResistanceMap:
     dR_dH: np.ndarray
     seconds: float
     result: np.ndarray | None = None
+
+    def _table(self, unit):
+        if unit not in ("N", "N/m"):
+            raise ValueError(f"unit must be 'N' (sphere) or 'N/m' (cylinder), got {unit!r}")
+        coords = {"temperature": (self.temperatures, "K"), "speed": (self.speeds, "m/s")}
+        fields = {"rolling_resistance": (self.value, unit), "dR_dT": (self.dR_dT, f"{unit}/K"),
+                  "dR_dH": (self.dR_dH, f"{unit}/m"), "valid": (np.asarray(self.valid), "-")}
+        if self.result is not None:
+            fields["result"] = (np.asarray(self.result), "-")
+        return coords, fields, {}
+
+    def to_xarray(self, *, unit="N"):
+        """An ``xarray.Dataset`` with dimensions ``(temperature, speed)`` [K, m/s] and variables
+        ``rolling_resistance`` [``unit``: N for a sphere, N/m for a cylinder], ``dR_dT``,
+        ``dR_dH``, ``valid`` and ``result``, each with ``attrs["units"]``. Needs xarray."""
+        from ._labelled import to_xarray
+
+        return to_xarray(*self._table(unit))
+
+    def to_pandas(self, *, unit="N"):
+        """As :meth:`to_xarray`, a ``pandas.DataFrame`` with one row per point (index
+        ``(temperature, speed)``, speed fastest), units in ``attrs["units"]``. Needs pandas."""
+        from ._labelled import to_pandas
+
+        return to_pandas(*self._table(unit))
 
     def write_csv(self, path, *, unit="N"):
         """One row per point: temperature [K], speed [m/s], R_r, dR/dT, dR/dH, valid and (when
@@ -87,6 +113,8 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
 
     T = jnp.asarray(np.asarray(temperatures, float))
     V = jnp.asarray(np.asarray(speeds, float))
+    # the map's points are traced: the plausibility of its concrete inputs is checked here
+    check_plausible("resistance_map", radius=radius, H=layer.H, G0=material.relaxed_modulus(), speed=V)
     method = as_method(default_method(geometry) if method is None else method)
     if method.needs_resolution(geometry):  # one grid for the map: the union of the coldest and hottest
         method = eqx.tree_at(lambda m: m.grid, method, union([

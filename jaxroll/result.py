@@ -212,6 +212,34 @@ class RollingResult(eqx.Module):
         return np.vectorize(RESULTS.message, otypes=[object])(codes) if codes.ndim else np.asarray(
             RESULTS.message(codes), dtype=object)
 
+    def _table(self, speeds, loads, geometry):
+        if geometry not in ("sphere", "cylinder"):
+            raise ValueError(f"geometry must be 'sphere' or 'cylinder', got {geometry!r}")
+        unit = "N" if geometry == "sphere" else "N/m"
+        coords = {"speed": (np.asarray(speeds, float), "m/s"), "load": (np.asarray(loads, float), unit)}
+        fields = {"rolling_resistance": (np.asarray(self.value), unit), "valid": (np.asarray(self.valid), "-"),
+                  "result": (np.asarray(self.result), "-"), "contact_radius": (np.asarray(self.contact_radius), "m"),
+                  "gamma": (np.asarray(self.gamma), "-"), "truncation": (np.asarray(self.truncation), "-")}
+        return coords, fields, {"geometry": geometry, "result_names": list(RESULTS.names)}
+
+    def to_xarray(self, speeds, loads, *, geometry="sphere"):
+        """The result of :func:`jaxroll.rolling_resistance_grid` as an ``xarray.Dataset`` with
+        dimensions ``(speed, load)`` (the grid's axes, which the result does not store: pass the
+        same ``speeds`` [m/s] and ``loads`` [N, or N/m for cylinders]); variables
+        ``rolling_resistance``, ``valid``, ``result`` (:data:`RESULTS` codes; names in
+        ``attrs["result_names"]``), ``contact_radius`` [m], ``gamma``, ``truncation``, each with
+        ``attrs["units"]``. Needs xarray (an optional dependency)."""
+        from ._labelled import to_xarray
+
+        return to_xarray(*self._table(speeds, loads, geometry))
+
+    def to_pandas(self, speeds, loads, *, geometry="sphere"):
+        """As :meth:`to_xarray`, a ``pandas.DataFrame`` with one row per point (index
+        ``(speed, load)``, load fastest) and the units in ``attrs["units"]``. Needs pandas."""
+        from ._labelled import to_pandas
+
+        return to_pandas(*self._table(speeds, loads, geometry))
+
 
 def first_failure(*checks) -> jax.Array:
     """The :data:`RESULTS` code of the first failed check: ``checks`` are ``(failed, code)``

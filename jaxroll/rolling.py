@@ -9,8 +9,9 @@ values of the compiled program. So a second call with new values compiles nothin
 (resolved) method.
 
 Checks and failures: with concrete inputs (an ordinary call) the input rules are checked on the
-host before anything is compiled (``ValueError``), the compiled program carries the
-:data:`~jaxroll.RESULTS` code of each point in ``result``, and ``throw=True`` raises
+host before anything is compiled (``ValueError``; values allowed but far outside the physical
+range, likely unit slips, give a :class:`~jaxroll.PlausibilityWarning`), the compiled program
+carries the :data:`~jaxroll.RESULTS` code of each point in ``result``, and ``throw=True`` raises
 :class:`~jaxroll.SolverError` on the host. So the compiled programs hold no host callbacks and
 JAX's persistent compilation cache can keep them across processes. With traced inputs (under a
 user's ``jax.jit``, ``jax.vmap``, ``jax.grad``) the same checks run inside the program
@@ -26,7 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_roller_values, input_checks, roller_inputs
+from ._numerics import as_float, check_plausible, check_roller_values, input_checks, roller_inputs
 from .engines.layer import Layer
 from .materials.material import AbstractMaterial
 from .engines.contact_size import estimate_contact_size
@@ -66,6 +67,8 @@ def _prepare(method, material, layer, radius, loads, speeds, geometry):
     traced = _traced(material, layer, radius, loads, speeds)
     if not traced:  # concrete values: the rules of jr.Layer and the material, on the host
         material.checked(), layer.checked()
+        check_plausible("rolling_resistance", radius=radius, H=layer.H, G0=material.relaxed_modulus(), speed=speeds,
+                        stacklevel=4)
     method.check_geometry(geometry)
     if method.needs_resolution(geometry):
         if traced:

@@ -200,7 +200,7 @@ def test_reproduce_passes_selection_and_prints_tables(tmp_path, monkeypatch, cap
     assert s.spacing == rp.QUICK.spacing and "quick" in s.label
     out = capsys.readouterr().out
     # PP mean error (+10 % + 0 + 0 - 10 %)/4 = 0; mean |error| 5 %; speed factor = 2.0 s / 0.01 s = 200
-    assert "| H = 5 mm, R = 2 cm | PP (slices) | +0.0 % | 5.0 % | 10.0 % |" in out
+    assert "| H = 5 mm, R = 2 cm | PP (slices) | 4 of 4 | +0.0 % | 5.0 % | 10.0 % |" in out  # all valid
     row = next(line for line in out.splitlines() if line.startswith("| PP (slices) |"))
     assert "| 200 |" in row and "20.0 s" in row and row.rstrip().endswith("| 161 |")
     assert (tmp_path / "report.md").exists() and (tmp_path / "rr_H5mm.png").exists()
@@ -308,16 +308,14 @@ def test_fit_missing_data_file_is_one_line_error(tmp_path, capsys):
 
 # ------------------------------------------------------------------- DMA -> material -> map
 
-DMA_FILE = "fitting/data/pyvisco_freq_user_raw.csv"
+DMA_FILE = str(jr.datasets.path("pyvisco_freq_user_raw.csv"))
 
 
 @pytest.fixture(scope="module")
 def material_dir(tmp_path_factory):
     """``jaxroll material`` on the shipped DMA file (once for the tests below)."""
-    from pathlib import Path
-
     out = tmp_path_factory.mktemp("material")
-    data = Path(__file__).resolve().parents[1] / DMA_FILE
+    data = DMA_FILE
     assert main(["material", str(data), "--T-ref", "298.15", "--out", str(out)]) == 0
     return data, out
 
@@ -394,7 +392,7 @@ def test_map_reports_invalid_points_in_one_line_per_reason(material_dir, tmp_pat
     heat map."""
     _, mdir = material_dir
     assert main(["map", "--material", str(mdir / "material.json"), "--H", "0.0005", "--n-temperatures", "2",
-                 "--n-speeds", "2", "--method", "direct", "--out", str(tmp_path)]) == 0
+                 "--n-speeds", "2", "--method", "direct", "--quiet", "--out", str(tmp_path)]) == 0  # --quiet: warnings only
     captured = capsys.readouterr()
     err = captured.err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("jaxroll map: warning: 4 of 4 points not valid (outside_pressure_model)")
@@ -451,3 +449,50 @@ def test_material_reports_and_optionally_drops_the_loss_artifacts(material_dir, 
     np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
     info = json.loads((tmp_path / "material.json").read_text())["info"]["prony"]
     assert info["loss_artifacts_hz"] == [100.0] and info["loss_artifacts_left_out"] is True
+
+
+def test_datasets_lists_and_copies_the_shipped_files(tmp_path, capsys):
+    """``jaxroll datasets`` lists every shipped file with its licence; with names it copies them
+    byte for byte; an unknown name is a one-line error (exit 2)."""
+    assert main(["datasets"]) == 0
+    listing = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in listing] == list(jr.datasets.names())
+    assert all("licence" in line for line in listing)
+    assert main(["datasets", "rolling_example.csv", "LICENSE-pyvisco", "--out", str(tmp_path)]) == 0
+    for name in ("rolling_example.csv", "LICENSE-pyvisco"):
+        assert (tmp_path / name).read_bytes() == jr.datasets.path(name).read_bytes()
+    capsys.readouterr()
+    assert main(["datasets", "nonexistent.csv", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown dataset 'nonexistent.csv'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_unit_slips_print_one_line_each_once(tmp_path, capsys):
+    """The issue's slip: ``jaxroll fit ... --radius 20 --H 30`` (mm typed for m) fits a G0 of a few
+    Pa. The command line prints each plausibility warning once, as one line without a source
+    line: radius and H before the fit, the fitted G0 after it."""
+    assert main(["fit", str(jr.datasets.path("synthetic_sphere.csv")), "--radius", "20", "--H", "30", "--starts", "1",
+                 "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    slips = [line for line in err if "PlausibilityWarning" in line or "SI units" in line]
+    assert len(slips) == 2, err
+    assert slips[0].startswith("jaxroll fit: warning: fit_material: radius R = 20 m is above 5 m")
+    assert "layer thickness H = 30 m is above 1 m" in slips[0]
+    assert slips[1].startswith("jaxroll fit: warning: fit_material: fitted: relaxed shear modulus G0 = ")
+    assert not any("warnings.warn" in line or ".py:" in line for line in err)
+
+
+def test_every_option_has_help_and_the_texts_render_cleanly():
+    """Each option of each subcommand carries a help text, and no rendered help shows argparse's
+    escape ``%%`` (a literal percent sign in a description is written ``%``)."""
+    import argparse
+
+    from jaxroll.apps.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, p in sub.choices.items():
+        missing = [a.option_strings or a.dest for a in p._actions if not a.help]
+        assert not missing, (name, missing)
+        assert "%%" not in p.format_help(), name
+        assert p.get_default("progress") in (True, None), name  # progress on by default where offered

@@ -7,7 +7,6 @@ exports, and pyvisco (the peer, skipped when not installed) on the shipped file.
 import math
 import re
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ import pytest
 import jaxroll as jr
 from jaxroll.identify.fit import DataWarning
 
-DATA = Path(__file__).resolve().parents[1] / "fitting" / "data" / "pyvisco_freq_user_raw.csv"
+DATA = jr.datasets.path("pyvisco_freq_user_raw.csv")
 
 # a known broad spectrum (shear, Pa, s), G_i ~ tau_i^-0.2 one time per decade over 1e-13..1e4 s:
 # log G' rises by ~0.2 per decade over the whole reduced range of the sweeps below

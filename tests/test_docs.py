@@ -1,10 +1,12 @@
 """The code blocks of README.md and fitting/README.md run as written.
 
-Python blocks run whole in a fresh interpreter from the repository root (the files they read
-are the shipped examples). Shell blocks: every ``jaxroll`` command parses with the CLI's own
+Every block runs from an empty temporary folder, as after ``pip install .`` in a new project:
+the files the examples read are the package's own (``jaxroll.datasets``). Python blocks run
+whole in a fresh interpreter. Shell blocks: every ``jaxroll`` command parses with the CLI's own
 parser (a misspelt option or a removed one fails here), and the commands that finish in
-seconds run for real; the slow ones (the full-model fit, the paper-resolution reproduce,
-regenerating the synthetic data) run under ``-m slow``.
+seconds run for real, after the ``jaxroll datasets`` lines that precede them in the same
+document (they copy the example files into the folder); the slow ones (the full-model fit, the
+paper-resolution reproduce, regenerating the synthetic data) run under ``-m slow``.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+import jaxroll
 from jaxroll.apps.cli import build_parser
 
 REPO = Path(__file__).resolve().parents[1]
@@ -53,17 +56,35 @@ SLOW = ("--method full", "make_synthetic.py", "reproduce")
 
 def _env():
     """The test session's environment (its compile flags and cache, see conftest.py) without a
-    forced host device count that another test may have set."""
+    forced host device count that another test may have set, importing the jaxroll under test
+    (installed, or this checkout) from any folder."""
     env = dict(os.environ)
     env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split() if "device_count" not in f)
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(jaxroll.__file__).parents[1]), *filter(None, [env.get("PYTHONPATH")])])
     return env
 
 
 @pytest.mark.parametrize("code", _blocks("python"))
-def test_python_blocks_run(code):
-    proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=600,
+def test_python_blocks_run(code, tmp_path):
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600,
                           env=_env(), check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
+
+
+def test_the_wheel_ships_every_dataset():
+    """Every file of jaxroll/datasets/ (data, provenance, licence) matches a package-data pattern
+    of pyproject.toml, and ``jr.datasets`` names exactly those files."""
+    import fnmatch
+    import tomllib
+
+    patterns = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["jaxroll"]
+    folder = Path(jaxroll.datasets.__file__).parent
+    files = sorted(p.name for p in folder.iterdir() if p.is_file() and p.suffix != ".py")
+    assert sorted(jaxroll.datasets.names()) == files
+    for name in files:
+        assert any(fnmatch.fnmatch(f"datasets/{name}", pat) for pat in patterns), name
+        assert jaxroll.datasets.path(name).is_file()
+    assert "py.typed" in patterns and (folder.parent / "py.typed").is_file()
 
 
 def test_every_shell_command_parses():
@@ -79,24 +100,30 @@ def test_every_shell_command_parses():
 
 
 def _runnable():
-    out = []
+    """(setup, line) for every runnable command; setup: the ``jaxroll datasets`` lines before it in
+    its document."""
+    out, setup = [], {}
     for doc, line in _shell_commands():
         if not (line.startswith("jaxroll ") or line.startswith("python fitting/")):
             continue  # venv / pip lines: CI itself runs those
+        if line.startswith("jaxroll datasets"):
+            setup.setdefault(doc, []).append(line)
         marks = [pytest.mark.slow] if any(s in line for s in SLOW) else []
-        out.append(pytest.param(line, marks=marks, id=f"{doc}:{line[:60]}"))
+        out.append(pytest.param(tuple(setup.get(doc, [])), line, marks=marks, id=f"{doc}:{line[:60]}"))
     return out
 
 
-@pytest.mark.parametrize("line", _runnable())
-def test_shell_commands_run(line, tmp_path):
+def _argv(line, tmp_path):
     words = shlex.split(line)
     if words[0] == "jaxroll":
-        words = [sys.executable, "-m", "jaxroll.apps.cli", *words[1:]]
-    else:  # python fitting/...: would rewrite the shipped data; run a copy of the script elsewhere
-        words = [sys.executable, str(REPO / words[1]), *words[2:], "--out", str(tmp_path)]
-    # --out paths of the examples land in tmp_path; data paths are relative to the repository
-    words = [str(tmp_path / w) if i > 0 and words[i - 1] == "--out" and not w.startswith("/") else w
-             for i, w in enumerate(words)]
-    proc = subprocess.run(words, cwd=REPO, capture_output=True, text=True, timeout=1800, env=_env(), check=False)
-    assert proc.returncode == 0, proc.stderr[-3000:]
+        return [sys.executable, "-m", "jaxroll.apps.cli", *words[1:]]
+    # python fitting/...: a script of the clone; --out keeps the shipped data untouched
+    return [sys.executable, str(REPO / words[1]), *words[2:], "--out", str(tmp_path)]
+
+
+@pytest.mark.parametrize(("setup", "line"), _runnable())
+def test_shell_commands_run(setup, line, tmp_path):
+    for step in (*[s for s in setup if s != line], line):
+        proc = subprocess.run(_argv(step, tmp_path), cwd=tmp_path, capture_output=True, text=True, timeout=1800,
+                              env=_env(), check=False)
+        assert proc.returncode == 0, f"{step}: {proc.stderr[-3000:]}"

@@ -210,3 +210,35 @@ def test_memory_error_is_one_line_with_estimate_budget_and_source(limits):
     assert "\n" not in text
     assert f"needs about {need / GiB:.1f} GiB" in text and f"budget of {3e9 / GiB:.1f} GiB" in text
     assert "cgroup memory limit" in text and "JAXROLL_MEMORY_BUDGET" in text
+
+
+# ------------------------------------------------------- plausibility: likely unit slips
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    (dict(radius=20.0), "radius R = 20 m is above 5 m"),  # 20 mm typed as 20
+    (dict(radius=5e-5), "radius R = 5e-05 m is below 0.0001 m"),
+    (dict(layer=jr.Layer(5.0)), "layer thickness H = 5 m is above 1 m"),  # 5 mm typed as 5
+    (dict(material=jr.StandardLinearSolid(3.0, 0.25, 1.0)), "relaxed shear modulus G0 = 3 Pa is below 10000 Pa"),
+    (dict(speed=360.0), "speed V = 360 m/s is above 100 m/s"),  # km/h typed as m/s... x 3.6 x 100
+])
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # slipped inputs may leave the model's range
+def test_likely_unit_slips_warn_once_on_the_host(kw, match):
+    """A value the rules allow but far outside the physical range gives one
+    PlausibilityWarning naming it (the computation goes on with the value as given)."""
+    args = dict(material=SLS, layer=jr.Layer(0.03), radius=R, load=100.0, speed=0.01) | kw
+    with pytest.warns(jr.PlausibilityWarning, match=match) as record:
+        jr.rolling_resistance(args.pop("material"), args.pop("layer"), method="direct", throw=False, **args)
+    assert len([w for w in record if w.category is jr.PlausibilityWarning]) == 1
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # extreme but plausible: validity not the point
+def test_plausible_inputs_and_traced_inputs_do_not_warn():
+    """The range limits themselves, a half-space (H = inf) and traced values (no host check inside
+    a compiled program) give no warning (warnings are errors in this suite)."""
+    for radius, H, V in [(5.0, 1.0, 100.0), (1e-4, jnp.inf, 0.0)]:
+        jr.rolling_resistance(SLS, jr.Layer(H), radius=radius, load=100.0, speed=V, method="direct", throw=False)
+    f = jax.jit(lambda Rr: jr.rolling_resistance(SLS, jr.Layer(0.03), radius=Rr, load=100.0, speed=0.01,
+                                                 method="direct", throw=False).value)
+    assert jnp.isfinite(f(20.0))
+

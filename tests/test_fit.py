@@ -216,7 +216,7 @@ def test_bad_fit_arguments():
 
 # ------------------------------------------------------------- rolling-resistance fits
 
-SHIPPED = Path(__file__).parent.parent / "fitting" / "data" / "synthetic_sphere.csv"
+SHIPPED = jr.datasets.path("synthetic_sphere.csv")
 R, LAYER = 0.02, jr.Layer(H=0.03)
 
 
@@ -268,7 +268,7 @@ def test_repeated_fits_reuse_the_compiled_model(monkeypatch):
 
 
 def test_direct_method_on_the_shipped_full_3d_set_is_flagged_as_misfit():
-    """fitting/data/synthetic_sphere.csv is made by the FULL 3D model (fitting/make_synthetic.py,
+    """jaxroll/datasets/synthetic_sphere.csv is made by the FULL 3D model (fitting/make_synthetic.py,
     paper resolution, 2 % noise, seed 2026). The direct method (stationary pressure) is ~13 %
     low on average there, so its fit is biased: the chi^2 test and the intervals must show it."""
     data = read_rolling_csv(SHIPPED)

@@ -209,3 +209,21 @@ def test_xls_workbook(tmp_path):
     book.save(str(tmp_path / "t.xls"))
     t = read_table(tmp_path / "t.xls", DMA[:2])
     assert t["frequency"].tolist() == [0.2 * math.pi] and t["storage"].tolist() == [1.5e6]
+
+
+def test_a_units_row_that_disagrees_with_the_magnitudes_warns(tmp_path):
+    """The issue's slip: speeds of 1e-4..1 written in m/s but labelled mm/s (median 1e-5 m/s after
+    conversion, below the typical 1e-4..10 m/s) warn naming m/s; the same numbers labelled m/s,
+    and temperatures in degC, do not; kelvin values labelled degC warn naming K."""
+    speeds = "\n".join(f"{v:g}" for v in np.logspace(-4, 0, 9))
+    p = tmp_path / "rr.csv"
+    p.write_text("speed\nmm/s\n" + speeds + "\n")
+    with pytest.warns(DataWarning, match=r"column 'speed' in mm/s has a median of 1e-05 .* look like m/s"):
+        read_table(p, [Column("speed", UNITS["speed"])])
+    p.write_text("speed\nm/s\n" + speeds + "\n")
+    read_table(p, [Column("speed", UNITS["speed"])])  # no warning (warnings are errors here)
+    p.write_text("frequency,storage,temperature\nHz,MPa,degC\n1,8097,-50\n10,3,100\n")
+    read_table(p, DMA)
+    p.write_text("frequency,storage,temperature\nHz,MPa,degC\n1,8097,223\n10,3,373\n")  # kelvin labelled degC
+    with pytest.warns(DataWarning, match=r"column 'temperature' in degC .* look like K"):
+        read_table(p, DMA)

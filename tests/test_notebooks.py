@@ -28,8 +28,7 @@ def test_notebook_executes(path, tmp_path, monkeypatch):
     shutil.copy(path, work)
     nb = nbformat.read(work, as_version=4)
     monkeypatch.setenv("JAXROLL_NOTEBOOK_QUICK", "1")
-    # the notebooks run in a temporary folder; their data are the repository's (not the install's)
-    monkeypatch.setenv("JAXROLL_DATA", str(Path(__file__).resolve().parents[1] / "fitting" / "data"))
+    # the notebooks run in a temporary folder and read their data through jr.datasets
     monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel picks its inline backend, as for a user
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
     client.execute()

@@ -157,3 +157,37 @@ def test_plot_pressure_fields():
     assert "x [mm]" in ax.get_xlabel() and ax.get_aspect() == 1.0
     assert len(ax.collections) >= 2  # pressure mesh + contact outline
     plot.close(fig)
+
+
+def test_statistics_and_figures_use_only_points_valid_in_both(tmp_path):
+    """The report's numbers are over the points where the method AND the reference are valid,
+    with the counts printed; the figures mark the rest. Oracle: the means of a hand-picked
+    error table over its valid cells (1 % and 3 % valid; -50 % at an invalid reference point and
+    +90 % at an invalid method point must not count)."""
+    loads, speeds = np.array([10.0, 150.0]), np.array([1e-3, 1e-2, 1e-1])
+    ref = np.ones((2, 3))
+    est = ref * np.array([[1.01, 0.5, 1.03], [1.9, 1.01, 1.03]])
+    ref_status = np.array([[0, jr.RESULTS.period_too_short, 0], [0, 0, 0]])
+    est_status = np.array([[0, 0, 0], [jr.RESULTS.outside_pressure_model, 0, 0]])
+    cr = rp.CaseResult(rp.CASES["H30mm"], loads, speeds, rp.MethodResult(ref, ref_status, 1.0, 1.0),
+                       {"direct": rp.MethodResult(est, est_status, 1.0, 1.0)})
+    assert cr.both_valid("direct").sum() == 4
+    st = rp.error_stats(cr.valid_error("direct"))
+    assert st["n"] == 4 and st["total"] == 6
+    assert st["mean"] == pytest.approx((0.01 + 0.03 + 0.01 + 0.03) / 4, rel=1e-12)
+    assert st["max_abs"] == pytest.approx(0.03, rel=1e-12)
+    rep = rp.Reproduction(rp.settings_for(True, cases=["H30mm"], methods=["direct"]), [cr], 1.0)
+    row = next(line for line in rp.accuracy_table(rep).splitlines() if "direct series" in line)
+    assert "| 4 of 6 | +2.0 % | 2.0 % | 3.0 % |" in row
+    rp.write_outputs(rep, tmp_path)  # warnings are errors: NaN-masked means and maps draw cleanly
+    report = (tmp_path / "report.md").read_text()
+    # per speed: 1e-3 m/s only 10 N (150 N: method not valid), 1e-2 only 150 N (10 N: reference not valid)
+    assert "| 0.001 | +1.0 (1) |" in report and "| 0.01 | +1.0 (1) |" in report and "| 0.1 | +3.0 (2) |" in report
+    fig = plot.plot_method_comparison(speeds, loads, ref, {"direct": est}, valid={"direct": est_status == 0},
+                                      reference_valid=ref_status == 0)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "reference not valid (1)" in labels and "direct not valid (1)" in labels
+    plot.close(fig)
+    fig = plot.plot_error_maps(speeds, loads, {"direct": cr.valid_error("direct")})
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["not valid (2)"]
+    plot.close(fig)

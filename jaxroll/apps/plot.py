@@ -1,4 +1,6 @@
-"""Figures (matplotlib): every function returns the Figure and optionally saves it (``path``).
+"""Figures (matplotlib): every function draws into new Axes, or into the caller's (``ax=``: one
+Axes, or a sequence of as many Axes as the figure has panels), returns the Figure and optionally
+saves it (``path``).
 
 The module never chooses the matplotlib backend: in a notebook the figures show inline, in a
 script they follow the user's backend (the command line selects the file-only ``Agg`` backend
@@ -19,7 +21,7 @@ from ..materials import material as _material
 
 __all__ = ["plot_master_curves", "plot_compliance", "plot_rolling_curves", "plot_fit", "plot_method_comparison",
            "plot_relative_error", "plot_error_maps", "plot_pressure_profile", "plot_pressure_map", "plot_master_fit",
-           "plot_resistance_map", "plot_shift_factors", "close"]
+           "plot_resistance_map", "plot_shift_factors", "masked_mean", "close"]
 
 
 def _save(fig, path):
@@ -28,12 +30,37 @@ def _save(fig, path):
     return fig
 
 
+def _figure(ax, nrows=1, ncols=1, *, squeeze=True, **subplots_kw):
+    """``(figure, axes)`` as ``plt.subplots(nrows, ncols, squeeze=squeeze, **subplots_kw)``
+    returns them, or, when the caller gives ``ax`` (one Axes, or a sequence of ``nrows * ncols``
+    Axes of one figure), those Axes in that shape and their figure (``subplots_kw`` then unused)."""
+    if ax is None:
+        return plt.subplots(nrows, ncols, squeeze=squeeze, **subplots_kw)
+    axes = np.asarray(ax, dtype=object).ravel()
+    if axes.size != nrows * ncols:
+        raise ValueError(f"ax: this figure needs {nrows * ncols} Axes ({nrows} x {ncols}); got {axes.size}")
+    fig = axes[0].figure
+    if squeeze:
+        return fig, axes[0] if axes.size == 1 else axes
+    return fig, axes.reshape(nrows, ncols)
+
+
+def masked_mean(e, axis):
+    """Mean of the finite entries of ``e`` along ``axis`` (NaN where there are none) and their
+    count: NaN marks points left out (e.g. not valid)."""
+    e = np.asarray(e, float)
+    ok = np.isfinite(e)
+    n = ok.sum(axis=axis)
+    total = np.where(ok, e, 0.0).sum(axis=axis)
+    return np.where(n > 0, total / np.maximum(n, 1), np.nan), n
+
+
 def close(fig):
     """Release a figure returned by this module (``matplotlib.pyplot.close``)."""
     plt.close(fig)
 
 
-def plot_master_curves(materials: dict, omega=None, *, shift=None, temperatures=None, path=None):
+def plot_master_curves(materials: dict, omega=None, *, shift=None, temperatures=None, ax=None, path=None):
     """G', G'' [Pa] and tan delta against angular frequency [rad/s] for named materials.
 
     With ``shift`` (:class:`jaxroll.WLF` or :class:`jaxroll.Arrhenius`) and ``temperatures``
@@ -41,7 +68,7 @@ def plot_master_curves(materials: dict, omega=None, *, shift=None, temperatures=
     superposition (:func:`jaxroll.at_temperature`: ``G*(omega; T) = G*_ref(omega a_T)``).
     """
     omega = np.logspace(-3, 4, 300) if omega is None else np.asarray(omega)
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    fig, (ax1, ax2) = _figure(ax, 1, 2, figsize=(10, 4))
     if (shift is None) != (temperatures is None):
         raise ValueError("plot_master_curves: give both shift= and temperatures=, or neither")
     if shift is not None:
@@ -62,11 +89,11 @@ def plot_master_curves(materials: dict, omega=None, *, shift=None, temperatures=
     return _save(fig, path)
 
 
-def plot_compliance(material, layers: dict, speed, q=None, path=None):
+def plot_compliance(material, layers: dict, speed, q=None, *, ax=None, path=None):
     """Re T and Im T [m/Pa] (plane strain, q_y = 0) against wavenumber q [rad/m] for named
     layers at rolling speed ``speed`` [m/s], with the half-space ``1/(2 G0 q)`` for reference."""
     q = np.logspace(0, 5, 400) if q is None else np.asarray(q)
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig, ax = _figure(ax, figsize=(6.5, 4.5))
     for name, lay in layers.items():
         t = np.asarray(_layer.surface_compliance(lay, material, q, 0.0, speed))
         (line,) = ax.loglog(q, t.real, label=f"Re T, {name}")
@@ -105,7 +132,7 @@ def _load_colors(loads):
 
 
 def plot_rolling_curves(speeds, loads, values, *, unit="N", reference=None, labels=("model", "reference"),
-                        valid=None, title=None, path=None):
+                        valid=None, title=None, ax=None, path=None):
     """R_r against speed (log axis), one curve per load, coloured by load (colorbar).
 
     ``values`` [unit] has shape ``(len(loads), len(speeds))``; ``reference`` (same shape,
@@ -113,7 +140,7 @@ def plot_rolling_curves(speeds, loads, values, *, unit="N", reference=None, labe
     outside their method's validity with a red cross.
     """
     speeds, values = np.asarray(speeds), np.asarray(values)
-    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+    fig, ax = _figure(ax, figsize=(7, 4.5), layout="constrained")
     colors = _load_colors(loads)
     for i in range(len(colors)):
         ax.semilogx(speeds, values[i], color=colors[i])
@@ -134,12 +161,12 @@ def plot_rolling_curves(speeds, loads, values, *, unit="N", reference=None, labe
     return _save(fig, path)
 
 
-def plot_fit(speeds, loads, measured, fitted, *, unit="N", path=None):
+def plot_fit(speeds, loads, measured, fitted, *, unit="N", ax=None, path=None):
     """Measured (circles) and fitted (lines) rolling resistance [unit] against speed [m/s], one
     colour per load (colorbar), and the relative residuals [%]."""
     speeds, loads = np.asarray(speeds), np.asarray(loads)
     measured, fitted = np.asarray(measured), np.asarray(fitted)
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2), layout="constrained")
+    fig, (ax1, ax2) = _figure(ax, 1, 2, figsize=(12, 4.2), layout="constrained")
     ul = np.unique(loads)
     for P, c in zip(ul, _load_colors(ul)):
         sel = loads == P
@@ -158,7 +185,8 @@ def plot_fit(speeds, loads, measured, fitted, *, unit="N", path=None):
     return _save(fig, path)
 
 
-def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N", title=None, path=None):
+def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N", title=None, valid=None,
+                           reference_valid=None, ax=None, path=None):
     """R_r against speed (log axis) per load: one panel per method, the method as lines and the
     reference (e.g. the full 3D model) as circles.
 
@@ -167,12 +195,15 @@ def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N
         reference: ``(n_loads, n_speeds)`` [unit].
         estimates: method name -> ``(n_loads, n_speeds)`` array [unit] (may be empty: the
             reference alone is drawn).
+        valid: method name -> boolean ``(n_loads, n_speeds)``, optional: the method's points
+            that are not valid get a red cross; reference_valid: the same for the reference
+            (a black plus). Each kind has a legend entry with its count.
     """
     speeds, loads, reference = np.asarray(speeds), np.asarray(loads), np.asarray(reference)
     n = max(1, len(estimates))
     ncol = min(n, 2)
     nrow = math.ceil(n / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol + 1.0, 3.6 * nrow), squeeze=False, sharey=True,
+    fig, axes = _figure(ax, nrow, ncol, figsize=(5.2 * ncol + 1.0, 3.6 * nrow), squeeze=False, sharey=True,
                              layout="constrained")
     colors = _load_colors(loads)
     items = list(estimates.items()) or [("reference", None)]
@@ -187,6 +218,14 @@ def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N
         handles = [plt.Line2D([], [], color="0.3", marker="o", ms=3, mfc="none", ls="", label="reference")]
         if est is not None:
             handles.insert(0, plt.Line2D([], [], color="0.3", label=name))
+        grid_v = np.broadcast_to(speeds, reference.shape)
+        for mask, values, style, label in ((reference_valid, reference, dict(marker="+", color="k"), "reference"),
+                                           ((valid or {}).get(name), est, dict(marker="x", color="red"), name)):
+            if mask is None or values is None or np.all(mask):
+                continue
+            bad = ~np.asarray(mask, bool)
+            ax.semilogx(grid_v[bad], np.asarray(values)[bad], ls="", ms=6, **style)
+            handles.append(plt.Line2D([], [], ls="", ms=6, **style, label=f"{label} not valid ({int(bad.sum())})"))
         ax.legend(handles=handles, fontsize=7)
     for ax in axes[:, 0]:
         ax.set_ylabel(f"rolling resistance R_r [{unit}]")
@@ -198,19 +237,22 @@ def plot_method_comparison(speeds, loads, reference, estimates: dict, *, unit="N
     return _save(fig, path)
 
 
-def plot_relative_error(speeds, loads, errors: dict, *, title=None, path=None):
+def plot_relative_error(speeds, loads, errors: dict, *, title=None, ax=None, path=None):
     """Mean relative error [%] of each method against the reference: against speed (averaged
     over loads, log axis) and against load (averaged over speeds), as in [ZG] figs. 3-8 (b).
 
     ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-]
-    (``estimate/reference - 1``).
+    (``estimate/reference - 1``); NaN marks a point left out (not valid), which the means skip
+    and the legend counts.
     """
     speeds, loads = np.asarray(speeds), np.asarray(loads)
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
+    fig, (ax1, ax2) = _figure(ax, 1, 2, figsize=(10, 3.8))
     for name, e in errors.items():
-        e = 100.0 * np.asarray(e)
-        ax1.semilogx(speeds, e.mean(axis=0), "o-", ms=3, label=name)
-        ax2.plot(loads, e.mean(axis=1), "o-", ms=3, label=name)
+        e = 100.0 * np.asarray(e, float)
+        left_out = int(np.sum(~np.isfinite(e)))
+        label = f"{name} ({left_out} of {e.size} points not valid, left out)" if left_out else name
+        ax1.semilogx(speeds, masked_mean(e, 0)[0], "o-", ms=3, label=label)
+        ax2.plot(loads, masked_mean(e, 1)[0], "o-", ms=3, label=label)
     ax1.set(xlabel="speed V [m/s]", ylabel="mean relative error [%]", title="against speed (mean over loads)")
     ax2.set(xlabel="load P [N]", ylabel="mean relative error [%]", title="against load (mean over speeds)")
     for ax in (ax1, ax2):
@@ -235,27 +277,34 @@ def _cell_edges(x, *, log):
     return np.exp(edges) if log else np.maximum(edges, 0.0)
 
 
-def plot_error_maps(speeds, loads, errors: dict, *, title=None, limit=None, path=None):
+def plot_error_maps(speeds, loads, errors: dict, *, title=None, limit=None, ax=None, path=None):
     """Relative error [%] over the speed x load grid, one panel per method, on a diverging
     colormap centred at 0 (red: the method overestimates, blue: underestimates).
 
-    ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-]; ``limit``: colour
-    range +-limit [%] (default: the largest absolute error, shared by all panels).
+    ``errors``: method name -> ``(n_loads, n_speeds)`` relative errors [-], NaN for points left
+    out (not valid: grey cells, with a legend entry); ``limit``: colour range +-limit [%]
+    (default: the largest absolute error, shared by all panels).
     """
     from matplotlib.colors import TwoSlopeNorm
+    from matplotlib.patches import Patch
 
     speeds, loads = np.asarray(speeds), np.asarray(loads)
     n = max(1, len(errors))
-    fig, axes = plt.subplots(1, n, figsize=(3.4 * n + 1.2, 3.4), squeeze=False, layout="constrained")
+    fig, axes = _figure(ax, 1, n, figsize=(3.4 * n + 1.2, 3.4), squeeze=False, layout="constrained")
     vals = [100.0 * np.asarray(e) for e in errors.values()]
-    lim = limit if limit is not None else max([float(np.nanmax(np.abs(v))) for v in vals] + [1e-3])
+    lim = limit if limit is not None else max([float(np.max(np.abs(v[np.isfinite(v)]), initial=0.0)) for v in vals]
+                                              + [1e-3])
     norm = TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim)
     mesh = None
     v_edges, p_edges = _cell_edges(speeds, log=True), _cell_edges(loads, log=False)
     for ax, (name, v) in zip(axes.flat, zip(errors, vals)):
-        mesh = ax.pcolormesh(v_edges, p_edges, v, cmap="RdBu_r", norm=norm)
+        mesh = ax.pcolormesh(v_edges, p_edges, np.ma.masked_invalid(v), cmap="RdBu_r", norm=norm)
         ax.set_xscale("log")
         ax.set(title=name, xlabel="speed V [m/s]")
+        left_out = int(np.sum(~np.isfinite(v)))
+        if left_out:
+            ax.set_facecolor("0.75")  # masked cells show the background
+            ax.legend(handles=[Patch(facecolor="0.75", label=f"not valid ({left_out})")], fontsize=7, loc="lower left")
     axes[0, 0].set_ylabel("load P [N]")
     if mesh is not None:
         fig.colorbar(mesh, ax=list(axes.flat), label="relative error [%]", shrink=0.9, pad=0.02)
@@ -264,11 +313,11 @@ def plot_error_maps(speeds, loads, errors: dict, *, title=None, limit=None, path
     return _save(fig, path)
 
 
-def plot_pressure_profile(x, pressures: dict, *, title=None, path=None):
+def plot_pressure_profile(x, pressures: dict, *, title=None, ax=None, path=None):
     """Contact pressure [Pa] of the 2D cylinder model against ``x`` [m] (rolling toward +x),
     one curve per named solution (e.g. per speed), drawn in mm and MPa."""
     x = np.asarray(x)
-    fig, ax = plt.subplots(figsize=(6.0, 3.8))
+    fig, ax = _figure(ax, figsize=(6.0, 3.8))
     for name, p in pressures.items():
         ax.plot(1e3 * x, 1e-6 * np.asarray(p), label=name)
     ax.axvline(0.0, color="k", lw=0.6, ls=":")
@@ -285,13 +334,13 @@ def plot_pressure_profile(x, pressures: dict, *, title=None, path=None):
     return _save(fig, path)
 
 
-def plot_pressure_map(x, y, pressure, *, contact=None, title=None, path=None):
+def plot_pressure_map(x, y, pressure, *, contact=None, title=None, ax=None, path=None):
     """Contact pressure [Pa] of the 3D sphere model on its window (``pressure[i, j]`` at
     ``(x[i], y[j])`` [m], rolling toward +x), drawn in MPa over mm, with the outline of the
     contact set (``contact``: boolean array of the same shape; default ``pressure > 0``)."""
     x, y, p = np.asarray(x), np.asarray(y), np.asarray(pressure)
     c = (p > 0) if contact is None else np.asarray(contact)
-    fig, ax = plt.subplots(figsize=(5.4, 4.4))
+    fig, ax = _figure(ax, figsize=(5.4, 4.4))
     mesh = ax.pcolormesh(1e3 * x, 1e3 * y, 1e-6 * p.T, cmap="magma", shading="nearest")
     ax.contour(1e3 * x, 1e3 * y, c.T.astype(float), levels=[0.5], colors="w", linewidths=1.0)
     ax.plot([0.0], [0.0], "c+", ms=8)
@@ -301,13 +350,13 @@ def plot_pressure_map(x, y, pressure, *, contact=None, title=None, path=None):
     return _save(fig, path)
 
 
-def plot_master_fit(master, prony, *, path=None):
+def plot_master_fit(master, prony, *, ax=None, path=None):
     """A master curve (points coloured by temperature set) with its Prony fit, and the fit's
     relative residuals ``log(G_fit / G_meas)`` (``master``: :class:`jaxroll.materials.MasterCurve`,
     ``prony``: :class:`jaxroll.materials.PronyFit`); loss values the fit left out (weight 0) are circled."""
     w = np.logspace(math.log10(master.omega.min()), math.log10(master.omega.max()), 400)
     g = np.asarray(_material.complex_modulus(prony.material, w))
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
+    fig, (ax1, ax2) = _figure(ax, 2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
     sc = ax1.scatter(master.omega, master.storage, c=master.set, s=9, cmap="viridis", label="G' measured")
     ax1.scatter(master.omega, master.loss, c=master.set, s=9, cmap="viridis", marker="x", label="G'' measured")
     out = np.zeros(len(master.omega), bool) if prony.weights is None else prony.weights[:, 1] == 0
@@ -333,12 +382,12 @@ def plot_master_fit(master, prony, *, path=None):
     return _save(fig, path)
 
 
-def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
+def plot_resistance_map(rmap, *, unit="N", title=None, ax=None, path=None):
     """Heat maps with contours of ``R_r(T, V)`` and ``dR_r/dT`` (``rmap``:
     :class:`jaxroll.materials.ResistanceMap`); invalid points hatched out (masked)."""
     T = rmap.temperatures - 273.15
     V = rmap.speeds
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = _figure(ax, 1, 2, figsize=(12, 4.5))
     for ax, data, label in ((axes[0], rmap.value, f"R_r [{unit}]"), (axes[1], rmap.dR_dT, f"dR_r/dT [{unit}/K]")):
         z = np.ma.masked_where(~rmap.valid, data)
         if not z.count():  # no valid point: an empty panel (a log scale needs values)
@@ -359,13 +408,13 @@ def plot_resistance_map(rmap, *, unit="N", title=None, path=None):
     return _save(fig, path)
 
 
-def plot_shift_factors(shifts, fits: dict, *, path=None):
+def plot_shift_factors(shifts, fits: dict, *, ax=None, path=None):
     """Shift factors ``log10 a_T`` against temperature with 95 % error bars and the fitted
     laws (``shifts``: :class:`jaxroll.materials.ShiftFactors`; ``fits``: ``{label: ShiftFit}``, e.g.
     ``{"WLF": jr.fit_wlf(shifts), "Arrhenius": jr.materials.fit_arrhenius(shifts)}``)."""
     T = shifts.temperature
     Tf = np.linspace(T.min(), T.max(), 200)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = _figure(ax, figsize=(7, 4.5))
     ax.errorbar(T - 273.15, shifts.log10_aT, yerr=1.96 * shifts.sigma, fmt="o", ms=4, capsize=2, color="k",
                 label="from the data (95 %)")
     for label, fit in fits.items():

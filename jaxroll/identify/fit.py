@@ -32,6 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._lsq import Z95, least_squares
+from .._numerics import check_plausible
 from ..io import UNITS, Column, DataWarning, read_table
 from ..materials.material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
 
@@ -281,6 +282,10 @@ class _Params(eqx.Module):
 # result
 
 
+#: SI units of the parameters a fit can free (flat names ``"G[0]"`` take the unit of ``"G"``).
+PARAMETER_UNITS = {"G0": "Pa", "tau": "s", "f": "-", "G_inf": "Pa", "G": "Pa", "H": "m", "C1": "-", "C2": "K"}
+
+
 @dataclasses.dataclass(frozen=True)
 class FitResult:
     """Outcome of :func:`fit_material`.
@@ -329,14 +334,54 @@ class FitResult:
     sigma_mode: str = "relative"
     method: object = None
 
+    def _rows(self):
+        """(label, value, stderr, low, high, unit) per flat parameter, in ``params`` order."""
+        out = []
+        for n in self.params:
+            v, s, (lo, hi) = self.params[n], self.stderr[n], self.ci95[n]
+            for i, row in enumerate(zip(np.ravel(v), np.ravel(s), np.ravel(lo), np.ravel(hi))):
+                out.append((n if np.ndim(v) == 0 else f"{n}[{i}]", *map(float, row), PARAMETER_UNITS.get(n, "")))
+        return out
+
+    def to_pandas(self):
+        """The fitted parameters as a ``pandas.DataFrame`` indexed by ``parameter`` (flat names,
+        ``"G[0]"`` for arrays) with columns ``value``, ``stderr``, ``ci95_low``, ``ci95_high``
+        and ``unit`` (SI); the correlation of the log-parameters in ``attrs["correlation"]``.
+        Needs pandas (an optional dependency)."""
+        from .._labelled import _require
+
+        pd = _require("pandas")
+        rows = self._rows()
+        df = pd.DataFrame(rows, columns=["parameter", "value", "stderr", "ci95_low", "ci95_high", "unit"])
+        df = df.set_index("parameter")
+        df.attrs.update(units={r[0]: r[5] for r in rows}, correlation=np.asarray(self.correlation).tolist(),
+                        reduced_chi2=self.reduced_chi2, converged=self.converged, sigma_mode=self.sigma_mode)
+        return df
+
+    def to_xarray(self):
+        """The fitted parameters as an ``xarray.Dataset`` over the dimension ``parameter`` (flat
+        names): ``value``, ``stderr``, ``ci95_low``, ``ci95_high`` (``attrs["units"]`` per
+        parameter in ``unit``), and ``correlation`` over ``(parameter, parameter_2)`` (the
+        log-parameters, ``names`` order). Needs xarray (an optional dependency)."""
+        from .._labelled import _require
+
+        xr = _require("xarray")
+        rows = self._rows()
+        names = [r[0] for r in rows]
+        cols = {k: ("parameter", np.array([r[i] for r in rows])) for i, k in
+                enumerate(["value", "stderr", "ci95_low", "ci95_high"], start=1)}
+        ds = xr.Dataset({**cols, "unit": ("parameter", [r[5] for r in rows]),
+                         "correlation": (("parameter", "parameter_2"), np.asarray(self.correlation))},
+                        coords={"parameter": names, "parameter_2": list(self.names)},
+                        attrs={"reduced_chi2": self.reduced_chi2, "converged": int(self.converged),
+                               "sigma_mode": self.sigma_mode})
+        return ds
+
     def report(self) -> str:
         """A plain-text fit report."""
         lines = ["parameter        value          std. error     95 % interval"]
-        for n in self.params:
-            v, s, (lo, hi) = self.params[n], self.stderr[n], self.ci95[n]
-            for i, (vi, si, li, hi_) in enumerate(zip(np.ravel(v), np.ravel(s), np.ravel(lo), np.ravel(hi))):
-                label = n if np.ndim(v) == 0 else f"{n}[{i}]"
-                lines.append(f"{label:<16} {vi:<14.6g} {si:<14.4g} [{li:.6g}, {hi_:.6g}]")
+        for label, vi, si, li, hi_, _ in self._rows():
+            lines.append(f"{label:<16} {vi:<14.6g} {si:<14.4g} [{li:.6g}, {hi_:.6g}]")
         chi2_meaning = {"absolute": "residuals weighted by the given sigma; ~1 for a correct model",
                         "scaled": "residuals weighted by the given sigma; ~1 for a correct model; intervals "
                         "rescaled by it",
@@ -683,6 +728,8 @@ def fit_material(
         raise ValueError(f"solver must be 'trf' or 'lm', got {solver!r}")
     free = _DEFAULT_FREE[type(initial)] if free is None and type(initial) in _DEFAULT_FREE else free
     method = _check_problem(rolling, dma, initial, free or (), layer, radius, geometry, method, shift)
+    check_plausible("fit_material", radius=radius, H=None if layer is None else layer.H,
+                    speed=None if rolling is None else rolling.speed)
     model = (initial, layer, shift)  # arrays traced, Python floats (a static rho = 0) part of the key
     params = _Params.of(model, free, bounds)
     n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
@@ -718,6 +765,8 @@ def fit_material(
     for m in messages:
         warnings.warn(m, MisfitWarning if m.startswith("reduced chi^2") else IdentifiabilityWarning, stacklevel=2)
     material, lay, sh = params.build(jnp.asarray(logp), model)
+    check_plausible("fit_material: fitted", G0=material.relaxed_modulus(),
+                    H=lay.H if lay is not None and "H" in names else None)
     dof = max(n_res - params.size, 1)
     return FitResult(material=material, layer=lay, shift=sh, params=values, stderr=stderr, ci95=ci, covariance=cov,
                      correlation=corr, names=names, converged=bool(converged), residuals=np.asarray(r),

@@ -18,7 +18,7 @@ from .read import DMASweeps
 #: temperature) by more than this many decades, and by a multiple of 3 to within
 #: ``LEVEL_PREFIX_TOL``, is off by a unit prefix (10^3, 10^6). Real sets 5-10 K apart differ
 #: from that prediction by < 0.05 decade in the shipped file through the glass transition; the
-#: loss of a narrow spectrum 20 K apart (``fitting/data/dma_example.csv``) by 1.9 decades.
+#: loss of a narrow spectrum 20 K apart (``jaxroll/datasets/dma_example.csv``) by 1.9 decades.
 LEVEL_JUMP_DECADES, LEVEL_PREFIX_TOL = 2.0, 0.7
 #: Shear moduli above this [Pa] are no polymer's (steel: 8e10 Pa): a unit slip.
 MAX_MODULUS = 1e11

@@ -5,7 +5,7 @@ The layouts follow the formats' public descriptions (no instrument file was copi
 ``tan delta``), TA TRIOS text export (tab-separated ``[step]`` segments, the temperature in the
 step name), Anton Paar RheoCompass export (UTF-16 with BOM, tab-separated, decimal commas,
 ``Interval data:`` blocks with units in brackets). The numbers are four temperature sets of
-``fitting/data/pyvisco_freq_user_raw.csv`` (tension, MPa), written as the instrument would:
+``jaxroll/datasets/pyvisco_freq_user_raw.csv`` (tension, MPa), written as the instrument would:
 tension for Eplexor, shear ``G = E / 3`` [Pa] and ``omega`` [rad/s] for the rheometers.
 
 Run from the repository root: ``python tests/data/make_layouts.py``.
@@ -21,7 +21,7 @@ SETS = (0, 7, 12, 20)  # about -50, 2.5, 40, 100 degC
 
 
 def shipped():
-    raw = np.genfromtxt(HERE.parent.parent / "fitting/data/pyvisco_freq_user_raw.csv", delimiter=",", skip_header=2)
+    raw = np.genfromtxt(HERE.parent.parent / "jaxroll/datasets/pyvisco_freq_user_raw.csv", delimiter=",", skip_header=2)
     return [raw[raw[:, 4] == s] for s in SETS]
 
 

@@ -1,20 +1,21 @@
 """``jaxroll`` command line: one module per command (``demo``, ``curve``, ``sweep``, ``fit``,
-``material``, ``map``, ``reproduce``), each with ``add_parser(sub)`` and ``run(args)``; shared option
+``material``, ``map``, ``reproduce``, ``datasets``), each with ``add_parser(sub)`` and ``run(args)``; shared option
 types in :mod:`~jaxroll.apps.cli.options`. Units are SI throughout (m, N, Pa, s, kg/m^3)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 import equinox as eqx
 
-from . import curve, demo, fit, map, material, reproduce, sweep
+from . import curve, datasets, demo, fit, map, material, reproduce, sweep
 from .options import Parser, runtime_message
 
 __all__ = ["build_parser", "main"]
 
-COMMANDS = (demo, curve, sweep, fit, material, map, reproduce)
+COMMANDS = (demo, curve, sweep, fit, material, map, reproduce, datasets)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,6 +33,23 @@ def build_parser() -> argparse.ArgumentParser:
     for command in COMMANDS:
         command.add_parser(sub)
     return p
+
+
+def _print_warnings_once(command, categories) -> None:
+    """Within the caller's ``warnings.catch_warnings()``: every warning prints as one stderr line
+    ``jaxroll COMMAND: warning: MESSAGE`` (no file name, no source line), each text once; the
+    library's own ``categories`` always reach that printer (the others follow the filters)."""
+    seen = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = f"jaxroll {command}: warning: {' '.join(str(message).split())}"
+        if text not in seen:
+            seen.add(text)
+            print(text, file=sys.stderr, flush=True)
+
+    for category in categories:
+        warnings.simplefilter("always", category)
+    warnings.showwarning = show
 
 
 def main(argv=None) -> int:
@@ -54,7 +72,10 @@ def main(argv=None) -> int:
     import jaxroll as jr
 
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            _print_warnings_once(args.command, (jr.PlausibilityWarning, jr.ValidityWarning, jr.DataWarning,
+                                                jr.IdentifiabilityWarning, jr.MisfitWarning))
+            return args.func(args)
     except (ValueError, OSError, jr.SolverError, jax.errors.JaxRuntimeError, eqx.EquinoxRuntimeError) as err:
         if args.debug:
             raise

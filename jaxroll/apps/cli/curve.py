@@ -55,6 +55,6 @@ def add_parser(sub) -> None:
     c.add_argument("--vmin", type=positive("--vmin [m/s]"), default=1e-4, help="lowest speed [m/s] (1e-4)")
     c.add_argument("--vmax", type=positive("--vmax [m/s]"), default=1.0, help="highest speed [m/s] (1)")
     c.add_argument("--n", type=count("--n"), default=23, help="number of log-spaced speeds (23)")
-    progress_args(c, False)
+    progress_args(c)
     c.add_argument("--out", default="jaxroll-curve", help="output folder (jaxroll-curve)")
     c.set_defaults(func=run)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...geometry import Geometry
 from ...io import write_table
-from .options import count, method_args, method_from_args, method_name, nonnegative, positive, progress_args
+from .options import count, geometry_arg, method_args, method_from_args, nonnegative, positive, progress_args
 
 
 def _parse_initial(text):
@@ -58,7 +58,7 @@ def run(args) -> int:
     fit = jfit.fit_material(data, dma, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
                             geometry=args.geometry, method=method, free=free, shift=shift,
                             n_starts=args.starts, seed=args.seed, solver=args.solver,
-                            progress=args.progress or (args.progress is None and method_name(args) != "direct"))
+                            progress=args.progress)
     report = fit.report()
     (out / "fit_report.txt").write_text(report + "\n")
     params = {
@@ -69,7 +69,7 @@ def run(args) -> int:
     payload = {"parameters": params, "names": fit.names, "correlation": np.asarray(fit.correlation).tolist(),
                "converged": fit.converged, "cost": fit.cost, "reduced_chi2": fit.reduced_chi2,
                "warnings": fit.warnings, "method": repr(method),
-               "units": {"G0": "Pa", "tau": "s", "f": "-", "H": "m"}}
+               "units": {n: jfit.PARAMETER_UNITS.get(n, "") for n in fit.params}}
     (out / "fit_params.json").write_text(json.dumps(payload, indent=2) + "\n")
     written = ["fit_report.txt", "fit_params.json"]
     if data is not None:
@@ -98,16 +98,16 @@ def add_parser(sub) -> None:
     f.add_argument("--H", default="inf", help="layer thickness [m] or 'inf' (default inf)")
     f.add_argument("--rho", type=nonnegative("rho [kg/m^3]"), default=0.0, help="layer density [kg/m^3] (default 0: no inertia)")
     f.add_argument("--nu", type=nonnegative("nu [-]"), default=0.5, help="Poisson's ratio (default 0.5)")
-    f.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
+    geometry_arg(f)
     method_args(f, fit=True)
     f.add_argument("--free", default="G0,tau,f", help="free parameters, comma separated (G0,tau,f[,H])")
     f.add_argument("--initial", type=_parse_initial, help="initial values, e.g. G0=1e6,tau=0.1,f=0.5 (SI)")
     f.add_argument("--wlf", help="WLF shift C1,C2[K],T_ref[K] for DMA at several temperatures, e.g. 8.86,101.6,293.15 "
                    "(add C1,C2 to --free to fit them)")
     f.add_argument("--starts", type=count("--starts"), default=5, help="number of starts spread over two decades (5)")
-    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--seed", type=int, default=0, help="random seed of the spread starting points (0)")
     f.add_argument("--solver", choices=["trf", "lm"], default="trf",
                    help="scipy least_squares method: trust-region reflective (default) or MINPACK Levenberg-Marquardt")
-    progress_args(f, None)
+    progress_args(f)
     f.add_argument("--out", default="jaxroll-fit", help="output folder (default jaxroll-fit)")
     f.set_defaults(func=run)

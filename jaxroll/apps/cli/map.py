@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ...geometry import Geometry
-from .options import count, method_args, method_from_args, method_name, nonnegative, poisson, positive, progress_args, say, warn_invalid
+from .options import count, geometry_arg, method_args, method_from_args, method_name, nonnegative, poisson, positive, progress_args, say, warn_invalid
 
 
 def _material_info(path):
@@ -44,7 +44,7 @@ def run(args) -> int:
     layer = jr.Layer(H=args.H, rho=args.rho, nu=args.nu)
     name = method_name(args)
     method = method_from_args(args)
-    say(args.progress or (args.progress is None and name != "direct"))(
+    say(args.progress)(
         f"map: {len(temperatures)} temperatures x {len(speeds)} speeds, {args.geometry}, method {name} (one "
         f"compiled program: compilation, then every point with dR/dT and dR/dH)")
     with warnings.catch_warnings():  # reported below, per reason, in CLI terms
@@ -77,7 +77,7 @@ def add_parser(sub) -> None:
         "rolling_resistance, dR_dT, dR_dH, valid, result) and map.png (heat maps with contours) into --out. "
         "Units SI (m, N or N/m, K, m/s).")
     mp.add_argument("--material", required=True, help="material.json (or material.csv) written by jaxroll material")
-    mp.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
+    geometry_arg(mp)
     mp.add_argument("--radius", type=positive("--radius [m]"), default=0.01, help="roller radius [m] (0.01)")
     mp.add_argument("--load", type=positive("--load [N or N/m]"), default=None,
                     help="load [N; N/m for cylinders] (default 10 N for a sphere, 1e4 N/m for a cylinder)")
@@ -98,6 +98,6 @@ def add_parser(sub) -> None:
     mp.add_argument("--n-speeds", dest="n_speeds", type=count("--n-speeds"), default=25,
                     help="number of log-spaced speeds (25)")
     method_args(mp)
-    progress_args(mp, None)
+    progress_args(mp)
     mp.add_argument("--out", default="jaxroll-map", help="output folder (jaxroll-map)")
     mp.set_defaults(func=run)

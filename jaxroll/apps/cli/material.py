@@ -124,7 +124,7 @@ def add_parser(sub) -> None:
         description="Read frequency sweeps at several temperatures (CSV: a header row of names, e.g. f, E_stor, "
         "E_loss, T[, Set] or f, G_stor, G_loss, T, then a units row or units in the names: Hz|rad/s, "
         "Pa|kPa|MPa|GPa, C|K; any of UTF-8/UTF-16/cp1252, comma/semicolon/tab, decimal comma; Eplexor, TA TRIOS "
-        "and Anton Paar RheoCompass exports; .xls/.xlsx with jaxroll[excel]; see docs/dma.md), fit the shift factors, WLF and Arrhenius laws (95 %% intervals), build the master "
+        "and Anton Paar RheoCompass exports; .xls/.xlsx with jaxroll[excel]; see docs/dma.md), fit the shift factors, WLF and Arrhenius laws (95 % intervals), build the master "
         "curve at the reference temperature and fit a Prony series to it. Writes material.json and material.csv "
         "(for jaxroll map), material_abaqus.inp (*VISCOELASTIC, TIME=PRONY; *TRS WLF), material_ansys.mac "
         "(TB,PRONY; TB,SHIFT WLF), shift_factors.csv, master_curve.csv, master_curve.png, shift_factors.png and "
@@ -150,6 +150,6 @@ def add_parser(sub) -> None:
                     "standard deviations in >= 3/4 of the sets; the shipped file's 100 Hz); always reported")
     mt.add_argument("--fe-poisson", dest="fe_poisson", type=poisson("--fe-poisson", incompressible=False),
                     default=0.49, help="instantaneous Poisson's ratio written to the Abaqus/ANSYS files (< 0.5; 0.49)")
-    progress_args(mt, False)
+    progress_args(mt)
     mt.add_argument("--out", default="jaxroll-material", help="output folder (jaxroll-material)")
     mt.set_defaults(func=run)

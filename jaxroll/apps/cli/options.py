@@ -49,12 +49,12 @@ def nonnegative(kind):
     return number(kind, zero_ok=True)
 
 
-def progress_args(p, default):
-    """``--progress`` / ``--quiet``: progress lines on stderr (default: ``default``)."""
+def progress_args(p):
+    """``--progress`` / ``--quiet``: progress lines on stderr, on by default (every command that
+    takes them may run for more than a few seconds: compilation alone takes seconds)."""
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--progress", dest="progress", action="store_true", default=default,
-                   help="progress lines on stderr (default: "
-                   + {True: "on", False: "off", None: "on for the grid methods"}[default] + ")")
+    g.add_argument("--progress", dest="progress", action="store_true", default=True,
+                   help="progress lines on stderr (the default)")
     g.add_argument("--quiet", dest="progress", action="store_false", help="no progress lines")
 
 
@@ -152,8 +152,14 @@ def model_args(p):
     p.add_argument("--H", default="0.03", help="layer thickness [m] or 'inf' (0.03)")
     p.add_argument("--rho", type=nonnegative("rho [kg/m^3]"), default=1000.0, help="layer density [kg/m^3] (1000)")
     p.add_argument("--radius", type=positive("radius [m]"), default=0.02, help="roller radius [m] (0.02)")
-    p.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere")
+    geometry_arg(p)
     method_args(p)
+
+
+def geometry_arg(p):
+    """``--geometry``: the roller's shape, which sets the load's unit."""
+    p.add_argument("--geometry", choices=["sphere", "cylinder"], default="sphere",
+                   help="rigid roller: a sphere (load in N) or a cylinder (plane strain, load in N/m) (sphere)")
 
 
 def thickness(text):

@@ -45,7 +45,8 @@ def add_parser(sub) -> None:
         "and timing.csv into --out. Units SI (m, N, Pa, s). The full run is the paper's resolution (its "
         "measured time on 2 CPU cores is in benchmarks/README.md); --quick is a reduced run for a first look.")
     r.add_argument("--quick", action="store_true",
-                   help="reduced run: 7 speeds x 3 loads, 3D cells 0.5 mm / 250 terms, slices on 512 cells")
+                   help="reduced run: 7 speeds 1e-3..1 m/s x 3 loads, an aperiodic 3D reference on 0.5 mm cells "
+                   "(valid at every point of H = 2, 5, 30 mm), slices on 512 cells")
     r.add_argument("--out", default="jaxroll-reproduce", help="output folder (jaxroll-reproduce)")
     r.add_argument("--cases", type=choices("--cases", tuple(CASES)), default=None,
                    help=f"comma-separated subset of {','.join(CASES)} (default: all)")
@@ -54,5 +55,5 @@ def add_parser(sub) -> None:
                    "reference always runs)")
     r.add_argument("--speeds", type=count("--speeds"), default=None, help="number of log-spaced speeds (23; quick 7)")
     r.add_argument("--loads", type=count("--loads"), default=None, help="number of loads per case (15; quick 3)")
-    progress_args(r, True)
+    progress_args(r)
     r.set_defaults(func=run)

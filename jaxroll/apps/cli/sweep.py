@@ -108,6 +108,6 @@ def add_parser(sub) -> None:
                         "parameters keep their values (V = 0.01 m/s, P = 100 N unless varied).")
     model_args(s_)
     s_.add_argument("--vary", type=_axis, action="append", required=True, help="grid axis, e.g. V=1e-4:1:23:log")
-    progress_args(s_, True)
+    progress_args(s_)
     s_.add_argument("--out", default="jaxroll-sweep", help="output folder (jaxroll-sweep)")
     s_.set_defaults(func=run)
