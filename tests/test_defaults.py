@@ -60,8 +60,8 @@ def test_default_sphere_matches_persson_and_hertz_at_small_f():
     persson = jr.reference.persson_sphere_halfspace(mat, R, P, V)
     assert abs(float(got.value) / persson - 1) < 0.025, (float(got.value), persson)
     # the penetration lies between the relaxed and glassy Hertz values, 1.3 % apart at f = 0.02
-    assert a0**2 / R * (1.02) ** (-2 / 3) * 0.995 < float(got.solution.penetration) < a0**2 / R * 1.005
     assert got.solution is not None  # a solved pressure: a full model, not a stationary one
+    assert a0**2 / R * (1.02) ** (-2 / 3) * 0.995 < float(got.solution.penetration) < a0**2 / R * 1.005
 
 
 def test_a_traced_sweep_needs_the_default_resolved():
