@@ -7,6 +7,7 @@ exports, and pyvisco (the peer, skipped when not installed) on the shipped file.
 import math
 import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
