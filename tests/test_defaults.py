@@ -147,9 +147,7 @@ def test_cli_modulus_configures_the_direct_method():
 
 @pytest.fixture(scope="module")
 def shipped_material():
-    from pathlib import Path
-
-    data = Path(__file__).parent.parent / "fitting" / "data" / "pyvisco_freq_user_raw.csv"
+    data = jr.datasets.path("pyvisco_freq_user_raw.csv")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", jr.DataWarning)
         sw = jr.read_dma_sweeps(data)
