@@ -441,14 +441,11 @@ def accuracy_table(rep: Reproduction) -> str:
     return "\n".join(rows)
 
 
-def write_outputs(rep: Reproduction, out) -> list:
-    """Write figures (PNG), ``report.md``, ``results.csv`` and ``timing.csv`` into ``out``;
-    return the written paths."""
+def _write_figures(rep: Reproduction, out: Path):
+    """The comparison and error figures of every case, master curves and pressure fields; return
+    ``(figures per case key, every written path)``."""
     from . import plot
-    from .plot import masked_mean
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     written = []
     figs = {}
     for cr in rep.cases:
@@ -486,7 +483,11 @@ def write_outputs(rep: Reproduction, out) -> list:
         extra += ["pressure_cylinder.png", "pressure_sphere.png"]
     written += [out / n for n in extra]
 
-    # CSV of all numbers
+    return figs, written
+
+
+def _write_tables(rep: Reproduction, out: Path) -> list:
+    """``results.csv`` (every point of every method with the reference) and ``timing.csv``."""
     rows = []
     for cr in rep.cases:
         for m, r in [("full", cr.reference)] + list(cr.methods.items()):
@@ -510,9 +511,34 @@ def write_outputs(rep: Reproduction, out) -> list:
                  "paper_reference_case": [PAPER_TIMES[n] for n in timing],
                  "paper_speed_factor": [PAPER_FACTORS.get(n, 1) for n in timing]},
                 ["", "s", "s", "s", "-", "", "s", "-"])
-    written += [out / "results.csv", out / "timing.csv"]
+    return [out / "results.csv", out / "timing.csv"]
 
-    # report
+
+
+def _case_error_tables(cr) -> list:
+    """Markdown lines: the mean relative error of each method against V and against P, over the
+    points valid for the method and the full 3D model (their counts)."""
+    from .plot import masked_mean
+
+    def cell(mean, n):
+        return f"{100 * mean:+.1f} ({n})" if n else "- (0)"
+
+    header = ["| " + " | ".join(METHOD_NAMES[m] for m in cr.methods) + " |", "|---" * (len(cr.methods) + 1) + "|"]
+    e_v = {m: masked_mean(cr.valid_error(m), axis=0) for m in cr.methods}
+    lines = ["Mean relative error [%] against V over the loads valid for the method and the full 3D "
+             "model (their count in parentheses):", "", "| V [m/s] " + header[0], header[1]]
+    for j, V in enumerate(cr.speeds):
+        lines.append(f"| {V:.3g} | " + " | ".join(cell(e_v[m][0][j], e_v[m][1][j]) for m in cr.methods) + " |")
+    e_p = {m: masked_mean(cr.valid_error(m), axis=1) for m in cr.methods}
+    lines += ["", "Mean relative error [%] against P over the speeds valid for both (count):", "",
+              "| P [N] " + header[0], header[1]]
+    for i, P in enumerate(cr.loads):
+        lines.append(f"| {P:g} | " + " | ".join(cell(e_p[m][0][i], e_p[m][1][i]) for m in cr.methods) + " |")
+    return lines + [""]
+
+
+def _report_lines(rep: Reproduction, figs: dict) -> list:
+    """The lines of ``report.md``."""
     s = rep.settings
     env = rep.environment
     lines = [
@@ -554,23 +580,7 @@ def write_outputs(rep: Reproduction, out) -> list:
             if np.any(r.status != 0):
                 lines += [f"{name}: {_invalid(r.status)} (column `result` of results.csv).", ""]
         if cr.methods:
-            def cell(mean, n):
-                return f"{100 * mean:+.1f} ({n})" if n else "- (0)"
-
-            e_v = {m: masked_mean(cr.valid_error(m), axis=0) for m in cr.methods}
-            lines += ["Mean relative error [%] against V over the loads valid for the method and the full 3D "
-                      "model (their count in parentheses):", "",
-                      "| V [m/s] | " + " | ".join(METHOD_NAMES[m] for m in cr.methods) + " |",
-                      "|---" * (len(cr.methods) + 1) + "|"]
-            for j, V in enumerate(cr.speeds):
-                lines.append(f"| {V:.3g} | " + " | ".join(cell(e_v[m][0][j], e_v[m][1][j]) for m in cr.methods) + " |")
-            e_p = {m: masked_mean(cr.valid_error(m), axis=1) for m in cr.methods}
-            lines += ["", "Mean relative error [%] against P over the speeds valid for both (count):", "",
-                      "| P [N] | " + " | ".join(METHOD_NAMES[m] for m in cr.methods) + " |",
-                      "|---" * (len(cr.methods) + 1) + "|"]
-            for i, P in enumerate(cr.loads):
-                lines.append(f"| {P:g} | " + " | ".join(cell(e_p[m][0][i], e_p[m][1][i]) for m in cr.methods) + " |")
-            lines.append("")
+            lines += _case_error_tables(cr)
     lines += ["## Material and pressure fields", "", "![master curves](master_curves.png)", ""]
     if rep.pressure is not None:
         pr = rep.pressure
@@ -580,9 +590,18 @@ def write_outputs(rep: Reproduction, out) -> list:
                   "![2D cylinder pressure](pressure_cylinder.png)", "", "![3D sphere pressure](pressure_sphere.png)", ""]
     lines += ["Numbers: `results.csv` (every grid point, every method, with the reference and the relative error), "
               "`timing.csv`.", ""]
-    (out / "report.md").write_text("\n".join(lines))
-    written.insert(0, out / "report.md")
-    return written
+    return lines
+
+
+def write_outputs(rep: Reproduction, out) -> list:
+    """Write figures (PNG), ``report.md``, ``results.csv`` and ``timing.csv`` into ``out``;
+    return the written paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    figs, written = _write_figures(rep, out)
+    written += _write_tables(rep, out)
+    (out / "report.md").write_text("\n".join(_report_lines(rep, figs)))
+    return [out / "report.md", *written]
 
 
 def reproduce(settings: Settings = FULL, out="jaxroll-reproduce", *, progress=sys.stderr) -> Reproduction:
