@@ -821,3 +821,89 @@ def test_pre_shifted_master_curve_reads_into_the_prony_fit(tmp_path):
     (tmp_path / "m.csv").write_text("\n".join(r.split(";", 1)[1] for r in rows) + "\n")  # no frequency column
     with pytest.raises(ValueError, match="no master curve found"):
         jr.materials.read_master_curve(tmp_path / "m.csv", T_ref=293.15)
+
+
+def test_prony_tables_read_into_the_generalized_maxwell(tmp_path):
+    """A known series written as pyvisco writes it (tau_i, alpha_i normalised with the
+    instantaneous tensile E_0), as absolute shear terms with a tau = inf row, and as tensile
+    terms with E_inf given, reads back to the same shear series to 1e-10."""
+    mat = TRUE_MAT
+    tau_, G_ = (np.asarray(mat.tau).tolist(), np.asarray(mat.G).tolist())
+    G0 = float(mat.G_inf) + float(np.sum(mat.G))
+    E0 = 3.0 * G0  # nu = 0.5
+    alpha = np.asarray(mat.G) / G0
+    rows = ["i,tau_i,alpha_i", "-,s,-"] + [f"{k},{t!r},{a!r}" for k, (t, a) in enumerate(zip(tau_, alpha.tolist()))][::-1]
+    (tmp_path / "pyvisco.csv").write_text("\n".join(rows) + "\n")
+    rows = ["tau_i;G_i", "s;MPa", f"inf;{float(mat.G_inf) / 1e6!r}"] + [f"{t!r};{g / 1e6!r}" for t, g in zip(tau_, G_)]
+    (tmp_path / "shear.csv").write_text("\n".join(rows) + "\n")
+    rows = ["tau_i [s]\tE_i [Pa]"] + [f"{t!r}\t{3 * g!r}" for t, g in zip(tau_, G_)]
+    (tmp_path / "tension.txt").write_text("\n".join(rows) + "\n")
+    for back in (jr.materials.read_prony_table(tmp_path / "pyvisco.csv", E_0=E0),
+                 jr.materials.read_prony_table(tmp_path / "pyvisco.csv", E_inf=3.0 * float(mat.G_inf)),
+                 jr.materials.read_prony_table(tmp_path / "shear.csv"),
+                 jr.materials.read_prony_table(tmp_path / "tension.txt", E_inf=3.0 * float(mat.G_inf))):
+        np.testing.assert_allclose(back.tau, mat.tau, rtol=1e-12)
+        np.testing.assert_allclose(back.G, mat.G, rtol=1e-10)
+        assert math.isclose(float(back.G_inf), float(mat.G_inf), rel_tol=1e-10)
+    with pytest.raises(ValueError, match="need the modulus they are fractions of"):
+        jr.materials.read_prony_table(tmp_path / "pyvisco.csv")
+    with pytest.raises(ValueError, match="long-term modulus once"):
+        jr.materials.read_prony_table(tmp_path / "shear.csv", G_inf=1e6)
+    with pytest.raises(ValueError, match="no Prony table found"):
+        jr.materials.read_prony_table(DATA)
+
+
+def test_shift_factor_file_reads_into_the_wlf_fit(tmp_path):
+    """Shift factors written from a known WLF law (degC, no reference column, the reference row
+    at 0) read into ShiftFactors whose WLF fit gives back C1, C2 to 1e-8; the factor itself
+    (aT) and a T_ref between the rows read too."""
+    T = TEMPS
+    y = np.asarray(TRUE_WLF.log_shift(T)) / math.log(10.0)
+    T, y = T.tolist(), y.tolist()
+    rows = ["T,log10_aT", "C,-"] + [f"{t - 273.15!r},{v!r}" for t, v in zip(T, y)]
+    (tmp_path / "s.csv").write_text("\n".join(rows) + "\n")
+    sh = jr.materials.read_shift_factors(tmp_path / "s.csv")
+    assert sh.T_ref == pytest.approx(293.15, abs=1e-9) and sh.temperature[sh.reference] == sh.T_ref
+    fit = jr.materials.fit_wlf(sh)
+    assert fit.params["C1"] == pytest.approx(8.86, rel=1e-8) and fit.params["C2"] == pytest.approx(101.6, rel=1e-8)
+    T1 = np.add(T, 1.0)  # no row at T_ref
+    a = np.asarray(jr.materials.shift_factor(TRUE_WLF, T1)).tolist()
+    rows = ["Temperature,aT", "K,-"] + [f"{t!r},{v!r}" for t, v in zip(T1.tolist(), a)]
+    (tmp_path / "a.csv").write_text("\n".join(rows) + "\n")
+    sh = jr.materials.read_shift_factors(tmp_path / "a.csv", T_ref=293.15)
+    assert sh.reference == -1 and len(sh.log10_aT) == len(T)
+    fit = jr.materials.fit_wlf(sh)
+    assert fit.params["C1"] == pytest.approx(8.86, rel=1e-8) and fit.params["C2"] == pytest.approx(101.6, rel=1e-8)
+    with pytest.raises(ValueError, match="give T_ref"):
+        jr.materials.read_shift_factors(tmp_path / "a.csv")
+
+
+def _write_isochronal(path, freqs_hz, temps):
+    rows = ["T,f,G',G''", "C,Hz,Pa,Pa"]
+    for f in freqs_hz:  # one temperature ramp per frequency, as instruments run them
+        g = [complex(jr.complex_modulus(jr.at_temperature(TRUE_MAT, TRUE_WLF, t), 2 * np.pi * f)) for t in temps]
+        rows += [f"{t - 273.15!r},{f!r},{gi.real!r},{gi.imag!r}" for t, gi in zip(temps.tolist(), g)]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_isochronal_sweep_gives_the_master_curve(tmp_path):
+    """A temperature ramp at 1 Hz (every 0.5 K) synthesised from the known series and WLF law:
+    with the law given, every point sits at omega a_T(T) with the series' moduli there to
+    1e-8; ramps at three frequencies (every 2 K) give a fitted WLF law near the true one."""
+    temps = np.arange(243.15, 353.2, 0.5)
+    _write_isochronal(tmp_path / "iso.csv", [1.0], temps)
+    m, law = jr.materials.read_isochronal(tmp_path / "iso.csv", TRUE_WLF)
+    assert law is TRUE_WLF and m.T_ref == 293.15 and np.all(np.diff(m.omega) > 0) and len(m.omega) == len(temps)
+    np.testing.assert_allclose(m.omega, np.sort(2 * np.pi * np.asarray(jr.materials.shift_factor(TRUE_WLF, temps))), rtol=1e-10)
+    g = np.asarray(jr.complex_modulus(TRUE_MAT, m.omega))
+    np.testing.assert_allclose(m.storage, g.real, rtol=1e-8)
+    np.testing.assert_allclose(m.loss, g.imag, rtol=1e-8)
+    with pytest.raises(ValueError, match="one frequency determines no shift law"):
+        jr.materials.read_isochronal(tmp_path / "iso.csv")
+    _write_isochronal(tmp_path / "iso3.csv", [0.1, 1.0, 10.0], np.arange(243.15, 353.2, 2.0))
+    m, law = jr.materials.read_isochronal(tmp_path / "iso3.csv", T_ref=293.15)
+    assert isinstance(law, jr.WLF)
+    # the shift of each 2 K step is found from a 2-decade sweep of 3 points: the law's shift at
+    # the ends (+-50 K) within 0.1 decade of the true one
+    for t in (243.15, 343.15):
+        assert abs(float(law.log_shift(t) - TRUE_WLF.log_shift(t))) / math.log(10.0) < 0.1
