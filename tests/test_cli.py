@@ -343,6 +343,8 @@ def test_material_writes_the_library_fits_and_every_export(material_dir, capsys)
     info = json.loads((out / "material.json").read_text())["info"]
     assert info["prony"]["n_terms"] == pf.n_terms and info["T_ref"] == pytest.approx(sh.T_ref)
     assert info["temperature_range"] == pytest.approx([sw.set_temperature[0], sw.set_temperature[-1]])
+    w = jr.master_curve(sw, sh).omega
+    assert info["reduced_frequency_range"] == pytest.approx([w.min(), w.max()], rel=1e-12)
     rows = _rows(out / "shift_factors.csv")
     assert rows[0][:3] == ["temperature", "log10_aT", "sigma"] and len(rows) == 2 + sw.n_sets
     np.testing.assert_allclose([float(r[1]) for r in rows[2:]], sh.log10_aT, rtol=1e-7)  # 8 digits
@@ -371,9 +373,11 @@ def test_map_matches_resistance_map(material_dir, geometry, load, unit, tmp_path
             "--n-speeds", "2", "--vmin", "1e-3", "--vmax", "1", "--quiet", "--out", str(tmp_path)]
     assert main(argv + (["--load", str(load)] if load else [])) == 0
     mat, shift = jr.load_material(mdir / "material.json")
-    rng = json.loads((mdir / "material.json").read_text())["info"]["temperature_range"]
+    info = json.loads((mdir / "material.json").read_text())["info"]
+    rng = info["temperature_range"]
     ref = jr.resistance_map(mat, shift, jr.Layer(H=0.01), radius=0.01, load=load or 10.0,
-                            temperatures=np.linspace(*rng, 3), speeds=[1e-3, 1.0], geometry=geometry)
+                            temperatures=np.linspace(*rng, 3), speeds=[1e-3, 1.0], geometry=geometry,
+                            measured_temperatures=rng, measured_frequencies=info["reduced_frequency_range"])
     rows = _rows(tmp_path / "map.csv")
     assert rows[0] == ["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid", "result"]
     assert rows[1] == ["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-", "-"]

@@ -776,9 +776,30 @@ def test_resistance_map_flags_temperatures_outside_the_measured_range():
     m = jr.resistance_map(mat, wlf, jr.Layer(H=0.01), radius=0.01, load=500.0, temperatures=Ts, speeds=[1e-2],
                           geometry="cylinder", measured_temperatures=(283.15, 303.15))
     assert m.valid[:, 0].tolist() == [False, True, True, False]
-    assert [jr.RESULTS.names[c] for c in m.result[:, 0]] == ["outside_measured_temperatures", "successful",
-                                                             "successful", "outside_measured_temperatures"]
+    assert [jr.RESULTS.names[c] for c in m.result[:, 0]] == ["outside_measured_range", "successful",
+                                                             "successful", "outside_measured_range"]
     assert np.all(np.isfinite(m.value))
+
+
+def test_resistance_map_flags_reduced_frequencies_outside_the_measured_range():
+    """A point whose contact is excited at V a_T(T) / a outside the master curve's range is not
+    valid (the same reason as a temperature outside), its value kept. Expected: V a_T / a with
+    the Hertz half-width of the glassy-to-relaxed material, a ~ 0.7 mm within a factor 1.5; the
+    band's ends sit 0.8 decade from the nearest point, so that uncertainty cannot move a point
+    across them."""
+    mat = jr.StandardLinearSolid(G0=3e6, tau=0.25, f=1.0).to_prony()
+    wlf = jr.WLF(C1=8.86, C2=101.6, T_ref=293.15)
+    Ts, Vs = np.array([283.15, 303.15]), np.array([1e-4, 1e-2, 1.0])
+    a = math.sqrt(4 * 500.0 * 0.01 / (math.pi * 4 * 3e6))  # Hertz half-width, E* = 4 G (nu = 0.5)
+    logw = np.log10(np.asarray(jr.materials.shift_factor(wlf, Ts)))[:, None] + np.log10(Vs)[None, :] - math.log10(a)
+    x = np.sort(logw.ravel())  # decades apart: 1.59, 0.41, 1.59, 0.41, 1.59
+    band = (10 ** (0.5 * (x[0] + x[1])), 10 ** (0.5 * (x[-2] + x[-1])))  # the lowest and highest point out
+    m = jr.resistance_map(mat, wlf, jr.Layer(H=0.01), radius=0.01, load=500.0, temperatures=Ts, speeds=Vs,
+                          geometry="cylinder", measured_frequencies=band)
+    inside = (logw > x[0]) & (logw < x[-1])
+    assert np.array_equal(m.valid, inside), (m.result, logw)
+    assert {jr.RESULTS.names[c] for c in m.result[~inside]} == {"outside_measured_range"}
+    assert np.all(np.isfinite(m.value) & (m.value > 0))
 
 
 @pytest.mark.parametrize("writer, suffix", [("write_abaqus", ".inp"), ("write_ansys", ".mac")])
@@ -907,3 +928,28 @@ def test_isochronal_sweep_gives_the_master_curve(tmp_path):
     # the ends (+-50 K) within 0.1 decade of the true one
     for t in (243.15, 343.15):
         assert abs(float(law.log_shift(t) - TRUE_WLF.log_shift(t))) / math.log(10.0) < 0.1
+
+
+def test_e_and_g_columns_must_agree(tmp_path):
+    """A file with both E and G columns: G = E/3 (an instrument's computed pair) reads the shear
+    columns, the same moduli as the tension file read alone; G = E (tension under a shear
+    header) stops with a message naming the ratio."""
+    rows = DATA.read_text(encoding="utf-8-sig").splitlines()
+    ref = jr.read_dma_sweeps(DATA)
+
+    def with_g(factor):
+        out = [rows[0] + ",G_stor,G_loss", rows[1] + ", MPa, MPa"]
+        for r in rows[2:]:
+            c = r.split(",")
+            out.append(r + f",{float(c[1]) * factor!r},{float(c[2]) * factor!r}")
+        return "\n".join(out) + "\n"
+
+    p = tmp_path / "eg.csv"
+    p.write_text(with_g(1.0 / 3.0))
+    both = jr.read_dma_sweeps(p)
+    assert both.source == "shear"
+    np.testing.assert_allclose(both.storage, ref.storage, rtol=1e-12)
+    np.testing.assert_allclose(both.loss, ref.loss, rtol=1e-12)
+    p.write_text(with_g(1.0))
+    with pytest.raises(ValueError, match=r"E'/G' = 1 \(median of \d+ rows\).*one column is mislabelled"):
+        jr.read_dma_sweeps(p)

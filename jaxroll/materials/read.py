@@ -116,6 +116,37 @@ def _moduli(path, t, mode):
     return storage, loss
 
 
+#: Tensile over shear modulus, ``E/G = 2 (1 + nu)``, of any isotropic solid (0 <= nu <= 0.5),
+#: widened by the scatter of an instrument's two computed columns: outside, one is mislabelled.
+E_OVER_G = (1.8, 3.3)
+
+
+def _mode(path, tables):
+    """``"E"`` or ``"G"``: the kind of moduli the tables give (None: neither). Tables with both
+    E and G storage columns must hold ``E'/G'`` within :data:`E_OVER_G` (then shear is read);
+    otherwise one column is mislabelled (a shear/tension mix-up) and reading stops."""
+    def has(t, m):
+        return any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))
+
+    modes = {m for t in tables for m in ("E", "G") if has(t, m)}
+    if len(modes) < 2:
+        return modes.pop() if modes else None
+    both = [t for t in tables if all(f"{m}_storage" in t for m in ("E", "G"))]
+    if not both:
+        raise ValueError(f"{path}: storage and loss moduli mix tension (E) and shear (G): "
+                         f"{sorted({h for t in tables for h in t.header.values()})}")
+    E, G = (np.concatenate([t[f"{m}_storage"] for t in both]) for m in ("E", "G"))
+    ok = np.isfinite(E) & np.isfinite(G)
+    ratio = float(np.median(E[ok] / G[ok])) if ok.any() else math.nan
+    if not E_OVER_G[0] <= ratio <= E_OVER_G[1]:
+        names = [both[0].header[f"{m}_storage"] for m in ("E", "G")]
+        raise ValueError(f"{path}: the file gives both {names[0]!r} and {names[1]!r}, but E'/G' = {ratio:.3g} (median "
+                         f"of {int(ok.sum())} rows), where E = 2 (1 + nu) G needs {E_OVER_G[0]}..{E_OVER_G[1]} (3 for "
+                         f"nu = 0.5): one column is mislabelled (shear under a tension header, or the reverse); keep "
+                         "the right one")
+    return "G"
+
+
 def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     """Read raw multi-temperature DMA (frequency sweeps at several temperatures).
 
@@ -182,11 +213,7 @@ def _read_sweeps(path, poisson):
         raise ValueError(f"{path}: no DMA table found (read as {raw.describe()}; it begins {first}); expected "
                          f"{_EXPECTED}")
     tables = [t for _, t in blocks]
-    modes = {m for t in tables for m in ("E", "G") if any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))}
-    if len(modes) > 1:
-        raise ValueError(f"{path}: storage and loss moduli mix tension (E) and shear (G): "
-                         f"{sorted({h for t in tables for h in t.header.values()})}")
-    mode = modes.pop() if modes else "G"
+    mode = _mode(path, tables) or "G"
     parts = []
     for b, (title, t) in enumerate(blocks):
         tan, polar = "tan_delta" in t, f"{mode}_complex" in t
@@ -287,12 +314,11 @@ def read_master_curve(path, *, T_ref, poisson=0.5):
     raw, blocks = read_blocks(path, _sweep_columns(), min_names=2, kind="master-curve")
     path = raw.path
     tables = [t for _, t in blocks]
-    modes = {m for t in tables for m in ("E", "G") if any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))}
-    if not tables or len(modes) != 1 or any("frequency" not in t for t in tables):
+    mode = _mode(path, tables) if tables else None
+    if mode is None or any("frequency" not in t for t in tables):
         raise ValueError(f"{path}: no master curve found (read as {raw.describe()}); expected a header row naming the "
                          "reduced frequency and the storage and loss moduli of one kind (E or G), e.g. "
                          "'f, E_stor, E_loss' with a units row 'Hz, MPa, MPa'")
-    mode = modes.pop()
     omega, storage, loss = (np.concatenate(x) for x in zip(*[(t["frequency"], *_moduli(path, t, mode))
                                                                for t in tables]))
     bad = np.isnan(omega) | np.isnan(storage) | np.isnan(loss)

@@ -74,7 +74,8 @@ def run(args) -> int:
         + ", ".join(f"1e{d}: " + "/".join("-" if v is None else f"{v:.3f}" for v in sl) for d, sl in per_decade.items()),
     ] + [f"warning: {m}" for m in warned]
     info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
-            float(sw.set_temperature[-1])], "T_ref": sh.T_ref,
+            float(sw.set_temperature[-1])], "reduced_frequency_range": [float(master.omega[0]), float(master.omega[-1])],
+            "T_ref": sh.T_ref,
             "WLF": {"C1": wlf.params["C1"], "C2": wlf.params["C2"], "ci95": _ci(wlf), "rms_decades": wlf.rms,
                     "degenerate": wlf.degenerate, "C2_fixed": args.wlf_C2 is not None},
             "Arrhenius": {"activation_energy": arr.params["activation_energy"],
