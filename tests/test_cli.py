@@ -456,3 +456,15 @@ def test_material_reports_and_optionally_drops_the_loss_artifacts(material_dir, 
     np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
     info = json.loads((tmp_path / "material.json").read_text())["info"]["prony"]
     assert info["loss_artifacts_hz"] == [100.0] and info["loss_artifacts_left_out"] is True
+
+
+def test_material_prony_smoothness_is_the_library_fit(material_dir, tmp_path):
+    """--prony-smoothness 1 writes the library's smoothed fit (3 times per decade) and records it."""
+    data, _ = material_dir
+    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--out", str(tmp_path)]) == 0
+    sw = jr.read_dma_sweeps(data)
+    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0).material
+    mat, _ = jr.load_material(tmp_path / "material.json")
+    np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(mat.tau), np.asarray(want.tau), rtol=1e-12)
+    assert json.loads((tmp_path / "material.json").read_text())["info"]["prony"]["smoothness"] == 1.0
