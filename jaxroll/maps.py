@@ -80,7 +80,7 @@ class ResistanceMap:
 
 
 def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds, geometry="sphere",
-                   method=None, measured_temperatures=None) -> ResistanceMap:
+                   method=None, measured_temperatures=None, measured_frequencies=None) -> ResistanceMap:
     """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
     ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
     ``dR_r/dH`` from ``jax.grad``, all points in one compiled, vmapped program.
@@ -99,8 +99,14 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
             against the full model).
         measured_temperatures: ``(T_min, T_max)`` [K] the material was measured over (e.g. the
             ``temperature_range`` that ``jaxroll material`` writes into ``material.json``):
-            points outside are computed but not valid, ``RESULTS.outside_measured_temperatures``
-            (the shift law is extrapolated there). ``None``: not checked.
+            points outside are computed but not valid, ``RESULTS.outside_measured_range`` (the
+            shift law is extrapolated there). ``None``: not checked.
+        measured_frequencies: ``(omega_min, omega_max)`` [rad/s], the master curve's range of
+            reduced angular frequency at ``shift.T_ref`` (the ``reduced_frequency_range`` of
+            ``material.json``): points whose contact is excited at a reduced frequency
+            ``V a_T(T) / a`` (``a`` the contact radius or half-width) outside it are not valid,
+            ``RESULTS.outside_measured_range`` (the Prony series is extrapolated there).
+            ``None``: not checked.
     """
     import time
 
@@ -125,21 +131,28 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
         r = rolling_resistance(at_temperature(material, shift, Ti), lay, radius=radius, load=load, speed=Vi,
                                geometry=geometry, method=method, throw=False)
-        return r.value, r.result
+        return r.value, (r.result, r.contact_radius)
 
     def value_and_grads(Ti, Vi, H):
-        (v, code), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
-        return v, code, g[0], g[1]
+        (v, (code, a)), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
+        return v, code, g[0], g[1], a
 
     grid = jax.jit(jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None)))
     H = jnp.asarray(layer.H)
     jax.block_until_ready(grid(T, V, H))  # compile
     t0 = time.perf_counter()
-    v, code, dT, dH = (np.asarray(a) for a in jax.block_until_ready(grid(T, V, H)))
+    v, code, dT, dH, a = (np.asarray(x) for x in jax.block_until_ready(grid(T, V, H)))
     seconds = (time.perf_counter() - t0) / v.size
+    outside = np.zeros(v.shape, bool)
     if measured_temperatures is not None:
         lo, hi = sorted(float(t) for t in measured_temperatures)
         Tn = np.asarray(T)
-        outside = ((Tn < lo - 1e-6) | (Tn > hi + 1e-6))[:, None] & (code == RESULTS.successful)
-        code = np.where(outside, RESULTS.outside_measured_temperatures, code)
+        outside |= ((Tn < lo - 1e-6) | (Tn > hi + 1e-6))[:, None]
+    if measured_frequencies is not None:
+        lo, hi = sorted(float(w) for w in measured_frequencies)
+        aT = np.asarray(jnp.exp(shift.log_shift(T)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w = aT[:, None] * np.asarray(V)[None, :] / a
+        outside |= ~((w >= lo * (1 - 1e-9)) & (w <= hi * (1 + 1e-9)))
+    code = np.where(outside & (code == RESULTS.successful), RESULTS.outside_measured_range, code)
     return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))

@@ -109,8 +109,9 @@ RESULTS = _Results([
     ("contact_too_large", "the contact radius exceeds 0.3 R: not a small-strain contact (the models assume a "
                           "parabolic roller profile)"),
     ("nonpositive", "non-positive rolling resistance: below the method's resolution (refine the grid)"),
-    ("outside_measured_temperatures", "the temperature lies outside the range the material was measured over: the "
-                                      "shift law is extrapolated there (measure there, or read the value as a guess)"),
+    ("outside_measured_range", "the temperature, or the contact's reduced frequency V a_T / a, lies outside what the "
+                               "material was measured over: the shift law or the Prony series is extrapolated there "
+                               "(measure there, or read the value as a guess)"),
 ])
 
 

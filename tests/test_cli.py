@@ -338,6 +338,8 @@ def test_material_writes_the_library_fits_and_every_export(material_dir, capsys)
     info = json.loads((out / "material.json").read_text())["info"]
     assert info["prony"]["n_terms"] == pf.n_terms and info["T_ref"] == pytest.approx(sh.T_ref)
     assert info["temperature_range"] == pytest.approx([sw.set_temperature[0], sw.set_temperature[-1]])
+    w = jr.master_curve(sw, sh).omega
+    assert info["reduced_frequency_range"] == pytest.approx([w.min(), w.max()], rel=1e-12)
     rows = _rows(out / "shift_factors.csv")
     assert rows[0][:3] == ["temperature", "log10_aT", "sigma"] and len(rows) == 2 + sw.n_sets
     np.testing.assert_allclose([float(r[1]) for r in rows[2:]], sh.log10_aT, rtol=1e-7)  # 8 digits
@@ -368,9 +370,11 @@ def test_map_matches_resistance_map(material_dir, geometry, load, unit, tmp_path
             "--n-speeds", "2", "--vmin", "1e-3", "--vmax", "1", "--method", "direct", "--quiet", "--out", str(tmp_path)]
     assert main(argv + (["--load", str(load)] if load else [])) == 0
     mat, shift = jr.load_material(mdir / "material.json")
-    rng = json.loads((mdir / "material.json").read_text())["info"]["temperature_range"]
+    info = json.loads((mdir / "material.json").read_text())["info"]
+    rng = info["temperature_range"]
     ref = jr.resistance_map(mat, shift, jr.Layer(H=0.01), radius=0.01, load=load or 10.0,
-                            temperatures=np.linspace(*rng, 3), speeds=[1e-3, 1.0], geometry=geometry, method="direct")
+                            temperatures=np.linspace(*rng, 3), speeds=[1e-3, 1.0], geometry=geometry, method="direct",
+                            measured_temperatures=rng, measured_frequencies=info["reduced_frequency_range"])
     rows = _rows(tmp_path / "map.csv")
     assert rows[0] == ["temperature", "speed", "rolling_resistance", "dR_dT", "dR_dH", "valid", "result"]
     assert rows[1] == ["K", "m/s", unit, f"{unit}/K", f"{unit}/m", "-", "-"]
@@ -496,3 +500,15 @@ def test_every_option_has_help_and_the_texts_render_cleanly():
         assert not missing, (name, missing)
         assert "%%" not in p.format_help(), name
         assert p.get_default("progress") in (True, None), name  # progress on by default where offered
+
+
+def test_material_prony_smoothness_is_the_library_fit(material_dir, tmp_path):
+    """--prony-smoothness 1 writes the library's smoothed fit (3 times per decade) and records it."""
+    data, _ = material_dir
+    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--out", str(tmp_path)]) == 0
+    sw = jr.read_dma_sweeps(data)
+    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0).material
+    mat, _ = jr.load_material(tmp_path / "material.json")
+    np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(mat.tau), np.asarray(want.tau), rtol=1e-12)
+    assert json.loads((tmp_path / "material.json").read_text())["info"]["prony"]["smoothness"] == 1.0

@@ -30,6 +30,12 @@ MIN_SET_SPACING = 0.5
 #: standard errors and the fall across the set exceeds ``MIN_FALL_DECADES`` (storage rises
 #: monotonically with frequency: Kramers-Kronig).
 FALL_T_STAT, MIN_FALL_DECADES = 3.0, 0.05
+#: On a glassy plateau the storage rises by only ~0.01 decade per decade (the shipped file's four
+#: coldest sets: slopes 0.008-0.015, 3-16 standard errors), so a reversed glassy set falls by
+#: less than ``MIN_FALL_DECADES``; there the flat glassy sets (median storage above
+#: ``GLASSY_MODULUS``, changing by at most ``MIN_FALL_DECADES``) count as falling together when
+#: most of them (and at least two) fall by more than ``FALL_T_STAT`` standard errors: one set's
+#: artifact does not trip it.
 #: Relative tolerance of a "round" frequency (1, 2, 2.5, 5 x 10^k) and of repeated frequencies.
 ROUND_RTOL, SAME_RTOL = 2e-3, 1e-9
 
@@ -134,7 +140,7 @@ def check_sweeps(sweeps: DMASweeps) -> list[str]:
                    f"{len(l0)} points (median tan delta {np.median(l0 / s0):.3g}): are the storage and loss columns "
                    "swapped?")
     # storage falling with frequency; repeated points
-    falling = []
+    falling, glassy_falls = [], []
     for i in range(n):
         m = sweeps.set == i
         x, y = np.log10(sweeps.omega[m]), np.log10(sweeps.storage[m])
@@ -149,8 +155,13 @@ def check_sweeps(sweeps: DMASweeps) -> list[str]:
             c, *_ = np.linalg.lstsq(A, y, rcond=None)
             r = y - A @ c
             se = math.sqrt(max(float(r @ r) / (len(x) - 2), 1e-30) / float(np.sum((x - x.mean()) ** 2)))
-            if c[0] < -FALL_T_STAT * se and -c[0] * (x.max() - x.min()) > MIN_FALL_DECADES:
+            significant = c[0] < -FALL_T_STAT * se
+            if significant and -c[0] * (x.max() - x.min()) > MIN_FALL_DECADES:
                 falling.append(i)
+            elif np.median(sweeps.storage[m]) > GLASSY_MODULUS and abs(c[0]) * (x.max() - x.min()) <= MIN_FALL_DECADES:
+                glassy_falls.append((i, significant))  # a flat glassy set
+    if len(glassy_falls) >= 2 and sum(f for _, f in glassy_falls) > len(glassy_falls) / 2:
+        falling = sorted(set(falling) | {i for i, f in glassy_falls if f})
     if falling:
         which = ", ".join(set_name(sweeps, i) for i in falling[:3]) + (", ..." if len(falling) > 3 else "")
         out.append(f"storage falls with frequency in {len(falling)} of {n} sets ({which}) (it can only rise: Kramers-Kronig): are the rows' "

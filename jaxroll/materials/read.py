@@ -10,6 +10,7 @@ moduli through ``G = E / (2 (1 + nu))`` (``nu = 0.5``: ``G = E/3``).
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import warnings
 
@@ -115,6 +116,37 @@ def _moduli(path, t, mode):
     return storage, loss
 
 
+#: Tensile over shear modulus, ``E/G = 2 (1 + nu)``, of any isotropic solid (0 <= nu <= 0.5),
+#: widened by the scatter of an instrument's two computed columns: outside, one is mislabelled.
+E_OVER_G = (1.8, 3.3)
+
+
+def _mode(path, tables):
+    """``"E"`` or ``"G"``: the kind of moduli the tables give (None: neither). Tables with both
+    E and G storage columns must hold ``E'/G'`` within :data:`E_OVER_G` (then shear is read);
+    otherwise one column is mislabelled (a shear/tension mix-up) and reading stops."""
+    def has(t, m):
+        return any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))
+
+    modes = {m for t in tables for m in ("E", "G") if has(t, m)}
+    if len(modes) < 2:
+        return modes.pop() if modes else None
+    both = [t for t in tables if all(f"{m}_storage" in t for m in ("E", "G"))]
+    if not both:
+        raise ValueError(f"{path}: storage and loss moduli mix tension (E) and shear (G): "
+                         f"{sorted({h for t in tables for h in t.header.values()})}")
+    E, G = (np.concatenate([t[f"{m}_storage"] for t in both]) for m in ("E", "G"))
+    ok = np.isfinite(E) & np.isfinite(G)
+    ratio = float(np.median(E[ok] / G[ok])) if ok.any() else math.nan
+    if not E_OVER_G[0] <= ratio <= E_OVER_G[1]:
+        names = [both[0].header[f"{m}_storage"] for m in ("E", "G")]
+        raise ValueError(f"{path}: the file gives both {names[0]!r} and {names[1]!r}, but E'/G' = {ratio:.3g} (median "
+                         f"of {int(ok.sum())} rows), where E = 2 (1 + nu) G needs {E_OVER_G[0]}..{E_OVER_G[1]} (3 for "
+                         f"nu = 0.5): one column is mislabelled (shear under a tension header, or the reverse); keep "
+                         "the right one")
+    return "G"
+
+
 def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     """Read raw multi-temperature DMA (frequency sweeps at several temperatures).
 
@@ -162,6 +194,16 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
         ValueError: one line naming the line and column of what is wrong, or, for a file that
             matches no layout, what was found and what was expected.
     """
+    from .checks import check_sweeps
+
+    sweeps = _read_sweeps(path, poisson)
+    for message in check_sweeps(sweeps):
+        warnings.warn(f"{path}: {message}", DataWarning, stacklevel=2)
+    return sweeps
+
+
+def _read_sweeps(path, poisson):
+    """:func:`read_dma_sweeps` without the plausibility checks."""
     if not (0.0 <= poisson <= 0.5):
         raise ValueError(f"poisson must be in [0, 0.5]; got {poisson}")
     raw, blocks = read_blocks(path, _sweep_columns(), min_names=2, kind="DMA")
@@ -171,11 +213,7 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
         raise ValueError(f"{path}: no DMA table found (read as {raw.describe()}; it begins {first}); expected "
                          f"{_EXPECTED}")
     tables = [t for _, t in blocks]
-    modes = {m for t in tables for m in ("E", "G") if any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))}
-    if len(modes) > 1:
-        raise ValueError(f"{path}: storage and loss moduli mix tension (E) and shear (G): "
-                         f"{sorted({h for t in tables for h in t.header.values()})}")
-    mode = modes.pop() if modes else "G"
+    mode = _mode(path, tables) or "G"
     parts = []
     for b, (title, t) in enumerate(blocks):
         tan, polar = "tan_delta" in t, f"{mode}_complex" in t
@@ -209,7 +247,7 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
         raise ValueError(f"{path}: no row gives the frequency, storage and loss moduli (missing values throughout)")
     if bad.any():
         warnings.warn(f"{path}: {int(bad.sum())} row(s) with a missing frequency or modulus skipped (lines "
-                      f"{_line_list(lines[bad])})", DataWarning, stacklevel=2)
+                      f"{_line_list(lines[bad])})", DataWarning, stacklevel=3)
         keep = ~bad
         omega, storage, loss, T, lines = omega[keep], storage[keep], loss[keep], T[keep], lines[keep]
         raw_set = None if raw_set is None else raw_set[keep]
@@ -242,12 +280,7 @@ def read_dma_sweeps(path, *, poisson=0.5) -> DMASweeps:
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     source = f"tension, nu = {poisson:g}" if mode == "E" else "shear"
-    sweeps = DMASweeps(omega, storage, loss, T, rank[labels], set_T[order], source, lines)
-    from .checks import check_sweeps
-
-    for message in check_sweeps(sweeps):
-        warnings.warn(f"{path}: {message}", DataWarning, stacklevel=2)
-    return sweeps
+    return DMASweeps(omega, storage, loss, T, rank[labels], set_T[order], source, lines)
 
 
 def _line_list(lines, n=8):
@@ -281,12 +314,11 @@ def read_master_curve(path, *, T_ref, poisson=0.5):
     raw, blocks = read_blocks(path, _sweep_columns(), min_names=2, kind="master-curve")
     path = raw.path
     tables = [t for _, t in blocks]
-    modes = {m for t in tables for m in ("E", "G") if any(f"{m}_{k}" in t for k in ("storage", "loss", "complex"))}
-    if not tables or len(modes) != 1 or any("frequency" not in t for t in tables):
+    mode = _mode(path, tables) if tables else None
+    if mode is None or any("frequency" not in t for t in tables):
         raise ValueError(f"{path}: no master curve found (read as {raw.describe()}); expected a header row naming the "
                          "reduced frequency and the storage and loss moduli of one kind (E or G), e.g. "
                          "'f, E_stor, E_loss' with a units row 'Hz, MPa, MPa'")
-    mode = modes.pop()
     omega, storage, loss = (np.concatenate(x) for x in zip(*[(t["frequency"], *_moduli(path, t, mode))
                                                                for t in tables]))
     bad = np.isnan(omega) | np.isnan(storage) | np.isnan(loss)
@@ -299,3 +331,187 @@ def read_master_curve(path, *, T_ref, poisson=0.5):
     omega, storage, loss = omega[~bad], storage[~bad] * factor, loss[~bad] * factor
     order = np.argsort(omega, kind="stable")
     return MasterCurve(omega[order], storage[order], loss[order], np.zeros(len(omega), int), float(T_ref))
+
+
+def _prony_columns():
+    """The columns of a Prony table (names case-sensitive: ``g_i`` is normalised, ``G_i`` a
+    modulus)."""
+    mod, opt = UNITS["modulus"], dict(required=False, positive=True)
+    return [
+        Column("tau", UNITS["time"], aliases=("tau_i", "Tau", "Tau_i", "TAU", "TAU_I", "relaxation_time",
+                                              "Relaxation time", "t_i"), required=False, finite=False, positive=True),
+        Column("E", mod, aliases=("E_i", "Ei"), **opt),
+        Column("G", mod, aliases=("G_i", "Gi"), **opt),
+        Column("g", UNITS["dimensionless"], aliases=("g_i", "alpha_i", "alpha", "a_i", "e_i", "gi", "ai"), **opt),
+        Column("index", None, aliases=("i", "I", "Index", "No.", "no.", "n"), required=False),  # read, not used
+    ]
+
+
+def read_prony_table(path, *, G_0=None, G_inf=None, E_0=None, E_inf=None, poisson=0.5):
+    """Read a Prony series table into a shear :class:`jaxroll.GeneralizedMaxwell`.
+
+    Tables as pyvisco, spreadsheets and FE pre-processors write them (any layout and encoding
+    :func:`jaxroll.io.read_rows` reads; names case-sensitive): a relaxation time column
+    ``tau_i`` [s] and either
+
+    * moduli ``G_i`` (shear) or ``E_i`` (tension) in ``Pa`` .. ``GPa``, the long-term modulus
+      given as ``G_inf`` / ``E_inf`` or as a row ``tau = inf``; or
+    * normalised moduli ``g_i`` (``alpha_i``, as pyvisco and Abaqus write them), the fraction
+      of the instantaneous modulus, ``G_i = g_i G_0``, ``G_inf = G_0 (1 - sum g_i)``; the scale
+      given as the instantaneous ``G_0`` / ``E_0`` or the long-term ``G_inf`` / ``E_inf``
+      (then ``G_0 = G_inf / (1 - sum g_i)``).
+
+    Tensile moduli become shear moduli through ``G = E / (2 (1 + nu))``. Abaqus and ANSYS
+    decks read through :func:`jaxroll.materials.load_material`.
+
+    Args:
+        path: the file.
+        G_0, G_inf, E_0, E_inf: the instantaneous or long-term shear / tensile modulus [Pa]
+            (one of them; none when the table's long-term modulus is a row ``tau = inf``).
+        poisson: Poisson's ratio [-] for tensile moduli (default 0.5).
+
+    Returns:
+        :class:`jaxroll.GeneralizedMaxwell` (shear, Pa, s), terms sorted by ``tau``.
+    """
+    from .material import GeneralizedMaxwell
+
+    if not (0.0 <= poisson <= 0.5):
+        raise ValueError(f"poisson must be in [0, 0.5]; got {poisson}")
+    scale = {k: v for k, v in dict(G_0=G_0, G_inf=G_inf, E_0=E_0, E_inf=E_inf).items() if v is not None}
+    if len(scale) > 1:
+        raise ValueError(f"read_prony_table: give one of G_0, G_inf, E_0, E_inf; got {sorted(scale)}")
+    (key, value), = scale.items() if scale else ((None, None),)
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise ValueError(f"read_prony_table: {key} must be finite and > 0 [Pa]; got {value}")
+    raw, blocks = read_blocks(path, _prony_columns(), min_names=2, kind="Prony", case_sensitive=True)
+    expected = ("a header row naming the relaxation time 'tau_i' [s] and the moduli 'G_i' or 'E_i' [Pa..GPa], or "
+                "the normalised 'g_i' / 'alpha_i' [-]")
+    if len(blocks) != 1 or "tau" not in blocks[0][1]:
+        raise ValueError(f"{raw.path}: no Prony table found (read as {raw.describe()}); expected {expected}")
+    t = blocks[0][1]
+    kinds = [k for k in ("G", "E", "g") if k in t]
+    if len(kinds) != 1:
+        raise ValueError(f"{raw.path}: the table needs one modulus column, G_i, E_i or g_i/alpha_i; found "
+                         f"{[t.header[k] for k in kinds] or sorted(t.header.values()) + t.unused}")
+    tau, m = t["tau"], t[kinds[0]]
+    if np.any(np.isnan(tau) | np.isnan(m)):
+        raise ValueError(f"{raw.path}, line {t.lines[np.argmax(np.isnan(tau) | np.isnan(m))]}: missing value")
+    long = np.isinf(tau)
+    if long.sum() > 1:
+        raise ValueError(f"{raw.path}: more than one row with tau = inf")
+    to_shear = 1.0 / (2.0 * (1.0 + poisson))
+    if kinds[0] == "g":
+        if long.any():
+            raise ValueError(f"{raw.path}, line {t.lines[long][0]}: normalised terms take no row tau = inf")
+        g = m
+        if g.sum() >= 1.0:
+            raise ValueError(f"{raw.path}: normalised terms need sum g_i < 1; got {g.sum():.6g}")
+        if key is None:
+            raise ValueError(f"{raw.path}: normalised terms (g_i) need the modulus they are fractions of: G_0 or "
+                             "E_0 (instantaneous) or G_inf or E_inf (long-term) [Pa]")
+        M0 = value if key.endswith("_0") else value / (1.0 - g.sum())
+        G0 = M0 * (to_shear if key.startswith("E") else 1.0)
+        order = np.argsort(tau)
+        return GeneralizedMaxwell(G_inf=G0 * (1.0 - g.sum()), G=G0 * g[order], tau=tau[order])
+    factor = to_shear if kinds[0] == "E" else 1.0
+    if long.any() == (key is not None) or (key is not None and not key.endswith("_inf")):
+        raise ValueError(f"{raw.path}: a table of moduli needs its long-term modulus once: a row tau = inf or "
+                         f"G_inf/E_inf [Pa]; got {'a row tau = inf and ' if long.any() else ''}"
+                         f"{key or 'no argument'}")
+    G_inf = float(m[long][0]) * factor if long.any() else value * (to_shear if key.startswith("E") else 1.0)
+    order = np.argsort(tau[~long])
+    return GeneralizedMaxwell(G_inf=G_inf, G=m[~long][order] * factor, tau=tau[~long][order])
+
+
+def read_shift_factors(path, *, T_ref=None):
+    """Read shift factors (a temperature and ``log10 a_T`` per row, as instruments, pyvisco and
+    ``jaxroll material``'s ``shift_factors.csv`` write them) into the
+    :class:`jaxroll.materials.ShiftFactors` that :func:`jaxroll.materials.fit_wlf` takes.
+
+    Columns (case-insensitive; any layout :func:`jaxroll.io.read_rows` reads): the temperature
+    (``T``, ``temp``, ``temperature``; ``K`` or ``degC``) and ``log10_aT`` (``log_aT``,
+    ``log(aT)``) or the factor itself, ``aT`` (``a_T``, ``shift_factor``); optional
+    ``sigma``, ``step_sigma`` (their standard errors) and ``reference`` (1 on the reference
+    row). Other columns are ignored.
+
+    Args:
+        path: the file.
+        T_ref: the reference temperature [K] (default: the row marked ``reference``, else the
+            row whose ``log10 a_T`` is 0). A ``T_ref`` between the rows is allowed: every row
+            then counts in the fit.
+
+    Returns:
+        :class:`jaxroll.materials.ShiftFactors`, rows sorted by temperature (``reference`` -1
+        when no row lies at ``T_ref``; unknown standard errors are 0).
+    """
+    from .shift import ShiftFactors
+
+    opt = dict(required=False, blank=False)
+    columns = [Column("temperature", UNITS["temperature"], aliases=("t", "temp"), **opt),
+               Column("log10_aT", UNITS["dimensionless"], aliases=("log_aT", "log(aT)", "log10(aT)", "log_a_t",
+                                                                   "log10_a_t", "log_shift_factor"), **opt),
+               Column("aT", UNITS["dimensionless"], aliases=("a_t", "shift_factor"), positive=True, **opt),
+               Column("sigma", UNITS["dimensionless"], **opt), Column("step_sigma", UNITS["dimensionless"], **opt),
+               Column("reference", None, **opt)]
+    raw, blocks = read_blocks(path, columns, min_names=2, kind="shift factor", warn_unused=False)
+    tables = [t for _, t in blocks if "temperature" in t and ("log10_aT" in t or "aT" in t)]
+    if len(tables) != 1:
+        raise ValueError(f"{raw.path}: no shift-factor table found (read as {raw.describe()}); expected a header row "
+                         "naming the temperature and log10_aT (or aT), e.g. 'T, log10_aT' with a units row 'K, -'")
+    t = tables[0]
+    T = t["temperature"]
+    y = t["log10_aT"] if "log10_aT" in t else np.log10(t["aT"])
+    order = np.argsort(T)
+    T, y = T[order], y[order]
+    if np.any(np.diff(T) <= 0):
+        raise ValueError(f"{raw.path}: two rows give the same temperature")
+    if T_ref is None:
+        ref = np.flatnonzero(t["reference"][order] == 1) if "reference" in t else np.flatnonzero(y == 0.0)
+        if len(ref) != 1:
+            raise ValueError(f"{raw.path}: which row is the reference? No single row has log10_aT = 0 (or reference = "
+                             "1); give T_ref")
+        T_ref = float(T[ref[0]])
+    T_ref = float(T_ref)
+    at = np.flatnonzero(np.abs(T - T_ref) < 1e-6)
+    zero = np.zeros(len(T))
+    sigma, step = (t[k][order] if k in t else zero for k in ("sigma", "step_sigma"))
+    return ShiftFactors(T, y, sigma, step, T_ref, int(at[0]) if len(at) else -1)
+
+
+def read_isochronal(path, shift=None, *, T_ref=None, poisson=0.5):
+    """Read isochronal temperature sweeps (moduli over temperature at one or a few fixed
+    frequencies) into a master curve at the shift law's reference temperature.
+
+    Every point moves to its reduced frequency ``omega a_T(T)`` with its own temperature:
+    ``shift`` given (a :class:`jaxroll.WLF` or :class:`jaxroll.Arrhenius`), it is applied; else
+    (two or more frequencies per temperature) the points are grouped into sets by temperature
+    (more than 1 K apart), shifted (:func:`fit_shift_factors`) and a WLF law fitted to the
+    shifts (:func:`fit_wlf`) is applied.
+
+    The file: any layout :func:`read_dma_sweeps` reads (frequency, moduli, temperature
+    columns); the plausibility checks of frequency sweeps (at least three frequencies per set,
+    sets 0.5 K apart) do not apply to it.
+
+    Args:
+        path: the file.
+        shift: the shift law; None: fitted (needs several frequencies).
+        T_ref: reference temperature [K] of a fitted law (default: the middle of the measured
+            range). Unused when ``shift`` is given (its ``T_ref`` is the master curve's).
+        poisson: as :func:`read_dma_sweeps`.
+
+    Returns:
+        ``(MasterCurve, shift)``: the :class:`jaxroll.materials.MasterCurve` (``set``: each
+        point's temperature set; ``frequency``: its measured frequency) and the law applied.
+    """
+    from .shift import MasterCurve, fit_shift_factors, fit_wlf
+
+    sweeps = _read_sweeps(path, poisson)
+    if shift is None:
+        if len(np.unique(np.round(np.log10(sweeps.omega), 9))) < 2:
+            raise ValueError(f"{path}: an isochronal sweep at one frequency determines no shift law; give the shift "
+                             "law (read_isochronal(path, WLF(...)))")
+        shift = fit_wlf(fit_shift_factors(sweeps, T_ref=T_ref)).shift
+    w = sweeps.omega * np.exp(np.asarray(shift.log_shift(sweeps.temperature)))
+    order = np.argsort(w, kind="stable")
+    return (MasterCurve(w[order], sweeps.storage[order], sweeps.loss[order], sweeps.set[order], float(shift.T_ref),
+                        sweeps.omega[order]), shift)

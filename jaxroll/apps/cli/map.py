@@ -31,7 +31,8 @@ def run(args) -> int:
     if shift is None:
         raise ValueError(f"--material {args.material}: no shift law (WLF or Arrhenius) in the file; a map over "
                          f"temperature needs one (jaxroll material writes the fitted WLF law)")
-    measured = _material_info(args.material).get("temperature_range")
+    info = _material_info(args.material)
+    measured, measured_w = info.get("temperature_range"), info.get("reduced_frequency_range")
     T_ref = float(shift.T_ref)
     tmin = args.tmin if args.tmin is not None else (measured[0] if measured else T_ref - 40.0)
     tmax = args.tmax if args.tmax is not None else (measured[1] if measured else T_ref + 60.0)
@@ -50,7 +51,8 @@ def run(args) -> int:
     with warnings.catch_warnings():  # reported below, per reason, in CLI terms
         warnings.simplefilter("ignore", jr.ValidityWarning)
         m = jr.resistance_map(mat, shift, layer, radius=args.radius, load=load, temperatures=temperatures,
-                              speeds=speeds, geometry=args.geometry, method=method, measured_temperatures=measured)
+                              speeds=speeds, geometry=args.geometry, method=method, measured_temperatures=measured,
+                              measured_frequencies=measured_w)
     m.write_csv(out / "map.csv", unit=unit)
     warn_invalid(m.result, "map")
     H = f"{args.H * 1e3:g} mm"

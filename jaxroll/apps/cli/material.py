@@ -35,7 +35,7 @@ def run(args) -> int:
         if args.drop_loss_artifacts:
             weights[artifacts, 1] = 0.0
         tell(f"material: Prony fit to {len(master.omega)} master-curve points")
-        pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights)
+        pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights, smoothness=args.prony_smoothness)
     warned = [str(w.message) for w in caught if issubclass(w.category, jr.DataWarning)]
     warned += [n if "Arrhenius" in n else f"Arrhenius: {n}" for n in arr.notes]
     warned += [n if "WLF" in n else f"WLF: {n}" for n in wlf.notes if n not in warned]
@@ -74,13 +74,14 @@ def run(args) -> int:
         + ", ".join(f"1e{d}: " + "/".join("-" if v is None else f"{v:.3f}" for v in sl) for d, sl in per_decade.items()),
     ] + [f"warning: {m}" for m in warned]
     info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
-            float(sw.set_temperature[-1])], "T_ref": sh.T_ref,
+            float(sw.set_temperature[-1])], "reduced_frequency_range": [float(master.omega[0]), float(master.omega[-1])],
+            "T_ref": sh.T_ref,
             "WLF": {"C1": wlf.params["C1"], "C2": wlf.params["C2"], "ci95": _ci(wlf), "rms_decades": wlf.rms,
                     "degenerate": wlf.degenerate, "C2_fixed": args.wlf_C2 is not None},
             "Arrhenius": {"activation_energy": arr.params["activation_energy"],
                           "ci95": _ci(arr)["activation_energy"], "rms_decades": arr.rms},
             "warnings": warned,
-            "prony": {"n_terms": pf.n_terms, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+            "prony": {"n_terms": pf.n_terms, "smoothness": args.prony_smoothness, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
                       "rms_log_per_decade": {f"1e{d}": sl for d, sl in per_decade.items()},
                       "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
                                                    for f in master.frequency[artifacts]}),
@@ -144,6 +145,9 @@ def add_parser(sub) -> None:
                     "upturn at the top frequency)")
     mt.add_argument("--prony-terms", dest="prony_terms", type=count("--prony-terms"), default=None,
                     help="relaxation times before pruning (default: one per decade of the master curve, plus one)")
+    mt.add_argument("--prony-smoothness", dest="prony_smoothness", type=positive("--prony-smoothness"), default=None,
+                    help="a smooth spectrum: 3 fixed relaxation times per decade with this weight on the curvature "
+                    "of log G_i (e.g. 1: the loss curve without ripples from the term spacing; --prony-terms unused)")
     mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
                     help="leave out of the Prony fit the loss values at a measured frequency where the loss turns "
                     "up in most sets (jaxroll.materials.loss_artifacts: its second difference along each sweep above 4 robust "
