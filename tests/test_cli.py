@@ -25,14 +25,13 @@ def test_demo_writes_plots_and_csv(tmp_path):
 
 
 def test_curve_matches_library(tmp_path):
-    # the method given explicitly: the test checks the plumbing, not which method is the default
-    assert main(["curve", "--loads", "50,100", "--n", "4", "--method", "SP", "--out", str(tmp_path)]) == 0
+    assert main(["curve", "--loads", "50,100", "--n", "4", "--out", str(tmp_path)]) == 0
     rows = _rows(tmp_path / "curve.csv")
     assert rows[0] == ["speed", "load", "rolling_resistance", "valid", "result"]
     rows = rows[2:]
     assert len(rows) == 8
     V, P, val = (float(x) for x in rows[5][:3])
-    # SP slices on the grid the curve resolves over its whole envelope
+    # the default method (SP for spheres) on the grid the curve resolves over its whole envelope
     mat, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(H=0.03, rho=1000.0)
     method = jr.Slices("SP").resolve(mat, layer, radius=0.02, loads=[50.0, 100.0],
                                      speeds=sorted({float(r[0]) for r in rows}))
