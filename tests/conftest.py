@@ -13,7 +13,10 @@ inherit the environment:
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
   program again. Programs with host callbacks (``jax.debug.callback``) are not stored.
 
-Set ``JAXROLL_TEST_PLAIN_XLA=1`` to run with jax's defaults (no flag, no cache), for comparison.
+Set ``JAXROLL_TEST_PLAIN_XLA=1`` to run with jax's defaults (no flag, no cache), for comparison,
+and ``JAXROLL_TEST_CLEAR_EVERY_MODULE=1`` to drop the compiled programs after every module (see
+:func:`_release_compiled_programs`). The run ends with a line that counts the programs compiled
+and those loaded from the persistent cache.
 """
 
 import gc
@@ -43,24 +46,75 @@ jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
 
+# What the session compiled and what it loaded from the persistent cache (this process only;
+# subprocesses count for themselves), printed at the end of the run
+_COMPILATION = {"compiled": 0, "compile_s": 0.0, "lookups": 0, "hits": 0, "saved_s": 0.0}
+
+
+def _count_event(event, **kw):
+    if event == "/jax/compilation_cache/compile_requests_use_cache":
+        _COMPILATION["lookups"] += 1
+    elif event == "/jax/compilation_cache/cache_hits":
+        _COMPILATION["hits"] += 1
+
+
+def _count_duration(event, duration, **kw):
+    if event == "/jax/core/compile/backend_compile_duration":
+        _COMPILATION["compiled"] += 1
+        _COMPILATION["compile_s"] += duration
+    elif event == "/jax/compilation_cache/compile_time_saved_sec":
+        _COMPILATION["saved_s"] += duration
+
+
+jax.monitoring.register_event_listener(_count_event)
+jax.monitoring.register_event_duration_secs_listener(_count_duration)
+
+
+def pytest_terminal_summary(terminalreporter):
+    c = _COMPILATION
+    terminalreporter.write_line(
+        f"XLA: {c['compiled']} programs compiled in {c['compile_s']:.0f} s; persistent cache: {c['hits']} of "
+        f"{c['lookups']} lookups loaded (~{max(c['saved_s'], 0.0):.0f} s of compilation saved; programs with host "
+        f"callbacks are never stored)")
+
+
 def pytest_sessionfinish(session, exitstatus):
     cache = globals().get("_CACHE_DIR")
     if cache:
         shutil.rmtree(cache, ignore_errors=True)
 
 
+#: Memory mappings of this process above which the compiled programs are dropped after a test
+#: module: half the usual kernel limit (``vm.max_map_count``, 65530), far above what one module adds
+MAX_MAPPINGS = 32768
+
+
+def _mappings() -> int | None:
+    """Number of memory mappings of this process (``None`` where ``/proc`` is unavailable)."""
+    try:
+        with open(f"/proc/{os.getpid()}/maps") as fh:
+            return sum(1 for _ in fh)
+    except OSError:
+        return None
+
+
 @pytest.fixture(autouse=True, scope="module")
 def _release_compiled_programs():
-    """Drop jax's compiled programs after each test module.
+    """Drop jax's compiled programs after a test module once the process holds many of them.
 
     Every compiled XLA:CPU program keeps a few memory mappings for its code; a process that runs
     the whole suite accumulated them until the kernel's limit (``vm.max_map_count``, 65530 here)
     and XLA aborted inside a compile ("Fatal Python error: Aborted", no message) near the end of
-    the suite. A program that a later module needs again comes back from the session's
+    the suite. Clearing after every module cost the next module its tracing and every small
+    program again (eager operations, programs with host callbacks, which the persistent cache
+    does not keep), so the programs are dropped only above :data:`MAX_MAPPINGS` (always where the
+    count is unknown). A program that a later module needs again comes back from the session's
     persistent compilation cache (above) instead of being compiled again."""
     yield
-    jax.clear_caches()
-    gc.collect()
+    before = _mappings()
+    if before is None or before > MAX_MAPPINGS or os.environ.get("JAXROLL_TEST_CLEAR_EVERY_MODULE"):
+        jax.clear_caches()
+        gc.collect()
     if os.environ.get("JAXROLL_TEST_MAPS"):
-        with open(f"/proc/{os.getpid()}/maps") as fh, open(os.environ["JAXROLL_TEST_MAPS"], "a") as out:
-            out.write(f"{sum(1 for _ in fh)}\n")
+        with open(os.environ["JAXROLL_TEST_MAPS"], "a") as out:
+            out.write(f"{before} {_mappings()}\n")

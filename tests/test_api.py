@@ -19,6 +19,7 @@ from jaxroll._numerics import newton_root
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 PRONY5 = jr.GeneralizedMaxwell(G_inf=1e6, G=[2e6, 1e6, 5e5, 3e5, 2e5], tau=[1e-3, 1e-2, 0.1, 1.0, 10.0])
 HOT = jr.at_temperature(SLS, jr.WLF(8.86, 101.6, 293.15), 303.15)
+HOT_PRONY5 = jr.at_temperature(PRONY5, jr.WLF(8.86, 101.6, 293.15), 303.15)
 R = 0.02
 
 # coarse grids (the numbers compared are those of the same discrete model, so resolution does
@@ -42,8 +43,14 @@ def _rr(material, layer, method, geometry, P, V):
                                  throw=False)
 
 
+# PD and PP share SP's front door and slice plumbing, and their own gradients are checked in
+# tests/test_slices.py (slow there too): slow here; SP, the slices' default, always runs
+_SLICES_PLUMBING = ("PD", "PP")
+
+
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # coarse test grids: short periods are flagged
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if c in _SLICES_PLUMBING else c
+                                  for c in CASES])
 def test_jit_vmap_grad_equal_eager(case):
     method, geometry, layer, loads = CASES[case]
     speeds = (3e-3, 3e-2)
@@ -78,11 +85,14 @@ def test_jit_vmap_grad_equal_eager(case):
 
 
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
-@pytest.mark.parametrize("material", [PRONY5, HOT], ids=["prony5", "at-temperature"])
+@pytest.mark.parametrize("material", [HOT_PRONY5, pytest.param(PRONY5, marks=pytest.mark.slow),
+                                      pytest.param(HOT, marks=pytest.mark.slow)],
+                         ids=["prony5-at-temperature", "prony5", "at-temperature"])
 @pytest.mark.parametrize("case", ["direct-sphere", "full-cylinder", "full-sphere", "SP"])
 def test_every_material_in_every_method(material, case):
     """A 5-term Prony series and a temperature-shifted material work in every method, and a
-    vmapped batch over speed equals the eager calls."""
+    vmapped batch over speed equals the eager calls. The default suite runs both at once (the
+    5-term series shifted by WLF: one compile per method instead of two); each alone is slow."""
     method, geometry, layer, loads = CASES[case]
     speeds = jnp.asarray([1e-3, 1e-1])
     eager = np.array([float(_rr(material, layer, method, geometry, loads[0], float(v)).value) for v in speeds])

@@ -261,13 +261,14 @@ def test_public_result_and_bad_input():
     method = jr.Full().resolve(mat, half, radius=R, loads=P, speeds=A0 / TAU, geometry="cylinder")
     assert method.grid.period is None and method.grid.window == 150  # an infinite layer, 3 a0 each side
     assert float(method.grid.spacing) == pytest.approx(A0 / 25, rel=1e-12)
-    jitted = jax.jit(lambda G, v: _full(jr.StandardLinearSolid(G, TAU, F), half, P, v, method=method).value)
+    # one compiled program (G, V and P traced) for the value and the error path below
+    jitted = jax.jit(lambda G, v, p: _full(jr.StandardLinearSolid(G, TAU, F), half, p, v, method=method).value)
     # tolerance: rounding / solver tolerance (same grid, same contact set)
-    assert float(jitted(G0, A0 / TAU)) == pytest.approx(float(res.value), rel=1e-9)
+    assert float(jitted(G0, A0 / TAU, P)) == pytest.approx(float(res.value), rel=1e-9)
     with pytest.raises(ValueError, match=r"load P \[N, or N/m for cylinders\] must be positive"):  # eagerly, while sizing the grid
         _full(mat, half, -P, 0.01)
     with pytest.raises(Exception, match=r"load P \[N, or N/m for cylinders\] must be positive"):  # under jit, with a fixed grid
-        jax.jit(lambda p: _full(mat, half, p, 0.01, method=method).value)(-P)
+        jitted(G0, 0.01, -P)
     with pytest.raises(ValueError, match="scalar"):
         _full(mat, half, jnp.asarray([P, P]), 0.01)
     # a window wider than the period is refused when the grid is built

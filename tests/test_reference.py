@@ -13,6 +13,7 @@ import scipy.optimize as so
 import scipy.special as sp
 
 import jaxroll
+from _cases import central_difference
 from jaxroll import reference as ref
 from jaxroll.materials.material import GeneralizedMaxwell, StandardLinearSolid
 
@@ -193,10 +194,8 @@ def test_exact_cylinder_gradients_vs_finite_differences(speed):
     p0 = dict(G0=3e6, tau=0.25, f=1.0, radius=0.02, load=5000.0, speed=speed)
     grad = _rr_grad(p0)
     fun = _rr_jit
-    for k, v in p0.items():
-        h = 1e-5 * v  # central difference: truncation ~1e-10, rounding ~1e-11 relative
-        fd = (float(fun({**p0, k: v + h})) - float(fun({**p0, k: v - h}))) / (2 * h)
-        assert float(grad[k]) == pytest.approx(fd, rel=1e-6), k
+    for k in p0:  # central difference, step 1e-5 relative: truncation ~1e-10, rounding ~1e-11 relative
+        assert float(grad[k]) == pytest.approx(central_difference(fun, p0, k, 1e-5), rel=1e-6), k
 
 
 def test_exact_cylinder_vmap_equals_loop_and_errors():
@@ -274,10 +273,8 @@ def test_persson_cylinder_bracket_vs_mpmath_and_gradient():
     d0 = jax.grad(lambda v: ref.persson_cylinder_halfspace(MAT, R, P, v))(0.0)
     assert float(d0) == pytest.approx(P**2 * dJ * TAU / (np.pi * a * a), rel=1e-12)
     g = jax.grad(fn)(p0)
-    for k, v in p0.items():
-        h = 1e-5 * v
-        fd = (float(fn({**p0, k: v + h})) - float(fn({**p0, k: v - h}))) / (2 * h)
-        assert float(g[k]) == pytest.approx(fd, rel=1e-6), k  # FD truncation ~1e-10
+    for k in p0:  # step 1e-5 relative: FD truncation ~1e-10
+        assert float(g[k]) == pytest.approx(central_difference(fn, p0, k, 1e-5), rel=1e-6), k
 
 
 def _sphere_S(x):

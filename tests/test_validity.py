@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
+from _cases import SLICES_COARSE
 from jaxroll.result import MAX_CONTACT_RATIO
 
 
@@ -154,12 +155,16 @@ def _model(p, method, geometry="sphere"):
 BASE = dict(G0=3e6, tau=0.25, f=1.0, H=0.03, rho=0.0, R=0.02, P=100.0, V=0.01)
 
 
+# one compiled program per method for all the cases below (a jit built inside each case would
+# compile again every time); the slices on a coarse 16-cell window (1 mm cells, ~5 per contact
+# radius): the checks, not the resolution, are under test
+_FORBIDDEN_RUNS = [jax.jit(lambda q, m=m: _model(q, m)) for m in ("direct", SLICES_COARSE)]
+
+
 @pytest.mark.parametrize("name,value,match", FORBIDDEN, ids=[f"{n}={v}" for n, v, _ in FORBIDDEN])
 def test_forbidden_inputs_raise_under_jit(name, value, match):
-    method = jr.Slices("SP", grid=jr.FixedGrid(2e-4, 80, period=0.1))
-    for m in ("direct", method):
+    for run in _FORBIDDEN_RUNS:
         p = {k: jnp.asarray(v) for k, v in BASE.items()}
-        run = jax.jit(lambda q, m=m: _model(q, m))
         assert np.isfinite(float(run(p)))  # the base point runs
         p[name] = jnp.asarray(value)
         with pytest.raises(Exception, match=match):

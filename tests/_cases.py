@@ -1,0 +1,41 @@
+"""Cases shared by the test modules: the paper's material and roller, standard layers, coarse
+grids and methods, and a central finite-difference helper.
+
+The suite is bound by compilation: the front doors compile once per static setup (method object,
+geometry and input shapes; see jaxroll/rolling.py), and a ``jax.jit`` built inside a test case
+compiles again at every case. Tests that build their cases from the objects here, with the same
+shapes, share compiled programs within a module and, through the session's persistent
+compilation cache (tests/conftest.py), across modules. Every object is immutable (equinox
+modules), so sharing them cannot couple tests.
+"""
+
+import jax.numpy as jnp
+
+import jaxroll as jr
+
+#: The paper's standard linear solid: G0 = 3 MPa, tau = 0.25 s, f = 1 ([ZG] eq. 12, sec. 5).
+PAPER = jr.StandardLinearSolid(3e6, 0.25, 1.0)
+#: The paper's roller radius [m].
+RADIUS = 0.02
+
+#: Layers of the paper's cases: 30 mm (thick), 5 mm (thin), and a half-space.
+THICK, THIN, HALF_SPACE = jr.Layer(0.03), jr.Layer(0.005), jr.Layer(jnp.inf)
+
+#: Coarse 3D grid of the fit-grade model: 0.5 mm cells (r_c/8..r_c/11 at 80..150 N on the thick
+#: layer), 29-cell window, 0.1 m period, 200 Fourier terms.
+SPHERE_COARSE = jr.FixedGrid(5e-4, 29, period=0.1, n_terms=200)
+#: A 16-cell line window of 1 mm cells (~5 per contact radius at 100 N): for plumbing and error
+#: paths, where the checks and not the resolution are under test.
+LINE_WINDOW16 = jr.FixedGrid(1e-3, 16, period=0.1)
+#: SP slices on :data:`LINE_WINDOW16`.
+SLICES_COARSE = jr.Slices("SP", grid=LINE_WINDOW16)
+
+
+def central_difference(fun, params: dict, name: str, rel_step: float = 1e-5) -> float:
+    """Central finite difference of the scalar ``fun(params)`` in ``params[name]``, step
+    ``rel_step * |params[name]|``: truncation O(step^2), rounding ~eps * |fun| / step."""
+    h = rel_step * abs(float(params[name]))
+    up, down = dict(params), dict(params)
+    up[name] = params[name] + h
+    down[name] = params[name] - h
+    return (float(fun(up)) - float(fun(down))) / (2 * h)
