@@ -41,6 +41,9 @@ def test_cylinder_halfspace_vs_persson_closed_form(V):
     assert float(res.truncation) < 1e-3
 
 
+# V tau/a up to 1e8 is reached here through the speed (up to 5.8e5 m/s): a deliberate regression
+# of the quadrature, not a unit slip
+@pytest.mark.filterwarnings("ignore::jaxroll.PlausibilityWarning")
 @pytest.mark.parametrize("zeta", [1e2, 1e4, 1e5, 1e6, 1e8])
 def test_cylinder_halfspace_at_large_v_tau_over_a(zeta):
     # regression: the quadrature started at x = q a = 1e-5 and missed the dissipation peak at
