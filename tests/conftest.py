@@ -140,3 +140,15 @@ def _release_compiled_programs():
     if os.environ.get("JAXROLL_TEST_MAPS"):
         with open(os.environ["JAXROLL_TEST_MAPS"], "a") as out:
             out.write(f"{before} {_mappings()}\n")
+
+
+#: Modules that start interpreters or notebook kernels: few tests, each long. They come first, so
+#: that pytest-xdist (``--dist loadfile --no-loadscope-reorder``, pyproject.toml) hands them out
+#: while the other workers take the many short modules, instead of leaving one worker alone with
+#: them at the end (the other modules keep their collection order).
+RUN_FIRST = ("test_notebooks.py", "test_docs.py", "test_sweep.py", "test_errors.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    rank = {name: k for k, name in enumerate(RUN_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(RUN_FIRST)))  # stable: modules stay whole
