@@ -11,12 +11,15 @@ inherit the environment:
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
-  program again. Programs with host callbacks (``jax.debug.callback``) are not stored.
+  program again. Programs with host callbacks (``jax.debug.callback``) are not stored. Under
+  pytest-xdist (``-n``, on by default in pyproject.toml) the controller creates and removes the
+  folder, and every worker, with the subprocesses it starts, keeps its own subfolder: jax writes
+  a cache file in place, and a process must not load a program that another is still writing.
 
 Set ``JAXROLL_TEST_PLAIN_XLA=1`` to run with jax's defaults (no flag, no cache), for comparison,
 and ``JAXROLL_TEST_CLEAR_EVERY_MODULE=1`` to drop the compiled programs after every module (see
 :func:`_release_compiled_programs`). The run ends with a line that counts the programs compiled
-and those loaded from the persistent cache.
+and those loaded from the persistent cache, summed over the xdist workers.
 """
 
 import gc
@@ -31,9 +34,14 @@ if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
     # ("Loading XLA:CPU AOT result ... prefer-no-gather", an upstream XLA message): keep them out
     # of the subprocesses' stderr that CLI tests read
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
-    if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
-        _CACHE_DIR = tempfile.mkdtemp(prefix="jaxroll-tests-xla-")
-        os.environ["JAX_COMPILATION_CACHE_DIR"] = _CACHE_DIR
+    if os.environ.get("PYTEST_XDIST_WORKER") and os.environ.get("JAXROLL_TEST_CACHE_ROOT"):
+        # a pytest-xdist worker: its own folder inside the controller's, so that no process reads
+        # a program that another one is still writing (jax writes cache files in place)
+        os.environ["JAX_COMPILATION_CACHE_DIR"] = os.path.join(
+            os.environ["JAXROLL_TEST_CACHE_ROOT"], os.environ["PYTEST_XDIST_WORKER"])
+    elif "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+        _CACHE_DIR = tempfile.mkdtemp(prefix="jaxroll-tests-xla-")  # the controller's: removed at the end
+        os.environ["JAXROLL_TEST_CACHE_ROOT"] = os.environ["JAX_COMPILATION_CACHE_DIR"] = _CACHE_DIR
         os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
         os.environ["JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES"] = "-1"
 
@@ -49,6 +57,8 @@ jax.config.update("jax_numpy_dtype_promotion", "strict")
 # What the session compiled and what it loaded from the persistent cache (this process only;
 # subprocesses count for themselves), printed at the end of the run
 _COMPILATION = {"compiled": 0, "compile_s": 0.0, "lookups": 0, "hits": 0, "saved_s": 0.0}
+#: pytest-xdist workers whose counts were added to :data:`_COMPILATION` (controller only)
+_WORKERS = []
 
 
 def _count_event(event, **kw):
@@ -75,13 +85,25 @@ def pytest_terminal_summary(terminalreporter):
     terminalreporter.write_line(
         f"XLA: {c['compiled']} programs compiled in {c['compile_s']:.0f} s; persistent cache: {c['hits']} of "
         f"{c['lookups']} lookups loaded (~{max(c['saved_s'], 0.0):.0f} s of compilation saved; programs with host "
-        f"callbacks are never stored)")
+        f"callbacks are never stored; {len(_WORKERS) or 1} test process(es))")
 
 
 def pytest_sessionfinish(session, exitstatus):
+    if hasattr(session.config, "workeroutput"):  # a pytest-xdist worker: report to the controller
+        session.config.workeroutput["jaxroll_compilation"] = dict(_COMPILATION)
     cache = globals().get("_CACHE_DIR")
     if cache:
         shutil.rmtree(cache, ignore_errors=True)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """pytest-xdist controller: add a finished worker's counts to the summary line."""
+    counts = getattr(node, "workeroutput", {}).get("jaxroll_compilation", {})
+    if counts:
+        _WORKERS.append(node.gateway.id)
+    for key, value in counts.items():
+        _COMPILATION[key] += value
 
 
 #: Memory mappings of this process above which the compiled programs are dropped after a test
@@ -118,3 +140,15 @@ def _release_compiled_programs():
     if os.environ.get("JAXROLL_TEST_MAPS"):
         with open(os.environ["JAXROLL_TEST_MAPS"], "a") as out:
             out.write(f"{before} {_mappings()}\n")
+
+
+#: Modules that start interpreters or notebook kernels: few tests, each long. They come first, so
+#: that pytest-xdist (``--dist loadfile --no-loadscope-reorder``, pyproject.toml) hands them out
+#: while the other workers take the many short modules, instead of leaving one worker alone with
+#: them at the end (the other modules keep their collection order).
+RUN_FIRST = ("test_notebooks.py", "test_docs.py", "test_sweep.py", "test_errors.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    rank = {name: k for k, name in enumerate(RUN_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(RUN_FIRST)))  # stable: modules stay whole
