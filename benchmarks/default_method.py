@@ -9,7 +9,10 @@ compilation + run) and the median of 3 further calls with the same point (run on
 and its deviation from the full model. A point whose grid does not fit in ``--max-gib`` of
 memory is skipped (estimated before building it).
 
-    python benchmarks/default_method.py [--quick] [--speeds 1e-3,1e-2,0.1,1] [--max-gib 4]
+    python benchmarks/default_method.py [--quick] [--speeds 1e-3,1e-2,0.1,1] [--max-gib 4] [--record]
+
+``--record`` stores the rows in benchmarks/numbers.json (section ``default_method``), from which
+``benchmarks/render_docs.py`` writes the methods tables of README.md and benchmarks/README.md.
 
 ``--quick``: one speed (1e-2 m/s) and grids up to 1 GiB. On the shared 2-core machine the
 timings are noisy (medians of 3).
@@ -23,6 +26,7 @@ import warnings
 import numpy as np
 
 import jaxroll as jr
+import _numbers
 from _timing import summary, timed
 
 MAT = jr.StandardLinearSolid(3e6, 0.25, 1.0)
@@ -46,12 +50,14 @@ def main():
     ap.add_argument("--speeds", default="1e-3,1e-2,0.1,1")
     ap.add_argument("--max-gib", type=float, default=4.0)
     ap.add_argument("--quick", action="store_true", help="one speed (1e-2 m/s), grids up to 1 GiB")
+    ap.add_argument("--record", action="store_true", help="store the rows in benchmarks/numbers.json")
     args = ap.parse_args()
     if args.quick:
         args.speeds, args.max_gib = "1e-2", min(args.max_gib, 1.0)
     speeds = [float(v) for v in args.speeds.split(",")]
     cases = [("sphere", 100.0, ["full", "SP", "PP", "PD", "direct"]), ("cylinder", 5000.0, ["full", "direct"])]
     print("geometry | H [mm] | V [m/s] | method | first call [s] | run [s] | R_r | vs full")
+    rows = []
     for geometry, P, names in cases:
         for H in (0.005, 0.03):
             layer = jr.Layer(H)
@@ -75,10 +81,16 @@ def main():
                     flag = "" if bool(out.valid) else f" (not valid: {out.reasons()})"
                     print(f"{geometry} | {H * 1e3:g} | {V:g} | {name} | {first:.2f} | {run:.4f} | "
                           f"{value:.4g}{flag} | {dev}", flush=True)
+                    rows.append(dict(geometry=geometry, H=H, V=V, method=name, first_s=first, run_s=run, value=value,
+                                     valid=bool(out.valid), reasons="" if bool(out.valid) else out.reasons(),
+                                     deviation=value / ref - 1 if ref else None))
                     if name != "full" and ref_run:
                         summary(f"default_method.py{' --quick' if args.quick else ''} ({geometry}, H = {H * 1e3:g} mm, "
                                 f"V = {V:g}, {name})", run, max(first - run, 0.0), f"full {ref_run:.4f} s per point",
                                 f"{ref_run / run:.0f}x", f"one point, automatic grid; deviation from full {dev}")
+    if args.record:
+        _numbers.record("default_method", {"command": "python benchmarks/default_method.py"
+                                           + (" --quick" if args.quick else ""), "rows": rows})
 
 
 if __name__ == "__main__":

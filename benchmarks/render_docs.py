@@ -1,0 +1,156 @@
+"""Write the generated parts of the docs from benchmarks/numbers.json.
+
+    python benchmarks/render_docs.py            # rewrite the generated blocks in place
+    python benchmarks/render_docs.py --check    # exit 1 (and name them) where a block is stale
+
+A generated block sits between ``<!-- generated: NAME -->`` and ``<!-- /generated: NAME -->`` in
+a Markdown file; its text is :data:`BLOCKS` ``[NAME](numbers)``. tests/test_docs_numbers.py runs
+the check, so a number quoted in the docs cannot drift from the file its script wrote.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+NUMBERS = ROOT / "benchmarks" / "numbers.json"
+
+#: README method rows: (shortcut, README method cell, what it solves, geometry, default for)
+METHOD_ROWS = [
+    ("full", '`jr.Full()`, `"full"`', "the rolling contact: pressure and contact set solved",
+     "sphere (3D), cylinder (2D)", "sphere, cylinder"),
+    ("SP", '`jr.Slices("SP")`, `"SP"`', "[ZG] sec. 3: sphere from 21 plane-strain slices", "sphere", ""),
+    ("PP", '`jr.Slices("PP")`, `"PP"`', "slices, load equilibrium", "sphere", ""),
+    ("PD", '`jr.Slices("PD")`, `"PD"`', "slices, penetration consistency", "sphere", ""),
+    ("direct", '`jr.Direct()`, `"direct"`', "[ZG] sec. 4: stationary pressure, no grid", "sphere, cylinder", ""),
+]
+
+
+def _machine(m: dict) -> str:
+    load = "-".join(f"{x:g}" for x in sorted({m["load_average"][0], m["load_average"][-1]}))
+    return (f"{m['date']}, commit {m['commit']}, jax {m['jax']}, {m['cores']}-core {m['cpu']} "
+            f"({m['device']}), load average {load}")
+
+
+def _pct(x):
+    return f"{x:+.0%}".replace("+0%", "0 %").replace("%", " %") if abs(x) >= 0.005 else "0 %"
+
+
+def _deviations(rows, geometry, H, method):
+    """'+3, +1, -9, -13 %' over the recorded speeds, '(N flagged)' for the points not valid."""
+    sel = sorted((r for r in rows if r["geometry"] == geometry and r["H"] == H and r["method"] == method),
+                 key=lambda r: r["V"])
+    if not sel or method == "full":
+        return "reference" if sel else ""
+    parts = [f"{r['deviation']:+.0%}".replace("%", "").replace("+0", "0").replace("-0", "0") for r in sel]
+    flagged = sum(not r["valid"] for r in sel)
+    note = "" if not flagged else (" (flagged)" if flagged == len(sel) else f" ({flagged} of {len(sel)} flagged)")
+    return ", ".join(parts) + " %" + note
+
+
+def methods_table(numbers: dict) -> str:
+    sec = numbers["default_method"]
+    rows = sec["rows"]
+    speeds = sorted({r["V"] for r in rows})
+    lines = [
+        f"Deviation from the full model for a sphere (100 N, R = 2 cm) at V = {', '.join(f'{v:g}' for v in speeds)} "
+        f"m/s on H = 5 mm / 30 mm, measured by `{sec['command']}` ({_machine(sec['measured'])}); a point the "
+        "method itself marks not valid is flagged. Costs and the cylinder: [docs/methods.md](docs/methods.md) and "
+        "[benchmarks/README.md](benchmarks/README.md).",
+        "",
+        "| `method=` | what it solves | geometry | default for | vs full, H = 5 mm | vs full, H = 30 mm |",
+        "|---|---|---|---|---|---|",
+    ]
+    for key, cell, what, geometry, default in METHOD_ROWS:
+        lines.append(f"| {cell} | {what} | {geometry} | {default} | {_deviations(rows, 'sphere', 0.005, key)} | "
+                     f"{_deviations(rows, 'sphere', 0.03, key)} |")
+    return "\n".join(lines)
+
+
+def _time(s):
+    return f"{s * 1e3:.1f} ms" if s < 1 else f"{s:.2f} s"
+
+
+def default_method_table(numbers: dict) -> str:
+    sec = numbers["default_method"]
+    lines = [
+        f"`{sec['command']}`, {_machine(sec['measured'])}. Paper material (G0 = 3 MPa, tau = 0.25 s, f = 1), "
+        "R = 2 cm, P = 100 N (sphere) or 5000 N/m (cylinder), one `jr.rolling_resistance` call per point with the "
+        "method's automatic grid. First call = grid sizing + compilation + run, in the order of the rows (a later "
+        "row reuses a compiled program when the shapes match); run = median of 3 further calls. Deviation = "
+        "method / full model - 1.",
+        "",
+        "| geometry | H | V [m/s] | method | first call | run | R_r | vs full |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in sec["rows"]:
+        unit = "N" if r["geometry"] == "sphere" else "N/m"
+        flag = "" if r["valid"] else f" (not valid: {r['reasons']})"
+        dev = "" if r["deviation"] is None or r["method"] == "full" else f"{r['deviation']:+.1%}"
+        lines.append(f"| {r['geometry']} | {r['H'] * 1e3:g} mm | {r['V']:g} | {r['method']} | {_time(r['first_s'])} | "
+                     f"{_time(r['run_s'])} | {r['value']:.4g} {unit}{flag} | {dev} |")
+    return "\n".join(lines)
+
+
+def first_use(numbers: dict) -> str:
+    sec = numbers["first_use"]
+    m = sec["measured"]
+    parts = []
+    if "reproduce_quick" in sec:
+        r = sec["reproduce_quick"]
+        parts.append(f"`jaxroll reproduce --quick` took {r['seconds']:.0f} s in an empty folder with an empty "
+                     f"compilation cache (load average {r['load_before']:g} before, {r['load_after']:g} after)")
+    if "suite" in sec:
+        s = sec["suite"]
+        counts = ", ".join(f"{s[k]} {k}" for k in ("passed", "failed", "skipped", "deselected") if s.get(k))
+        parts.append(f"the tests ({counts}) took {s['pytest_s'] / 60:.1f} min of pytest inside "
+                     f"{s['ci_run_s'] / 60:.1f} min of `.ci/run` on a clean clone (install included; load average "
+                     f"{s['load_before']:g} before, {s['load_after']:g} after)")
+    return (f"Measured by `python benchmarks/first_use.py` on {m['cores']} cores of a {m['cpu']} ({m['date']}, "
+            f"commit {m['commit']}): " + "; ".join(parts) + ".")
+
+
+#: generated block name -> renderer of numbers.json
+BLOCKS = {
+    "methods-table": methods_table,
+    "default-method-table": default_method_table,
+    "first-use": first_use,
+}
+
+#: files holding generated blocks
+FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md"]
+
+_BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(\n<!-- /generated: \2 -->)", re.S)
+
+
+def render(text: str, numbers: dict) -> str:
+    """``text`` with every generated block rewritten from ``numbers``."""
+    return _BLOCK.sub(lambda m: m.group(1) + BLOCKS[m.group(2)](numbers) + m.group(4), text)
+
+
+def blocks(text: str) -> list:
+    return [m.group(2) for m in _BLOCK.finditer(text)]
+
+
+def main(argv):
+    numbers = json.loads(NUMBERS.read_text())
+    stale = []
+    for path in FILES:
+        text = path.read_text()
+        new = render(text, numbers)
+        if new != text:
+            stale.append(path.relative_to(ROOT).as_posix())
+            if "--check" not in argv:
+                path.write_text(new)
+    if "--check" in argv and stale:
+        print("stale generated blocks in: " + ", ".join(stale) + " (run python benchmarks/render_docs.py)")
+        return 1
+    print(("rewrote " + ", ".join(stale)) if stale else "every generated block is current")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
