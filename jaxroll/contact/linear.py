@@ -34,13 +34,13 @@ __all__ = ["AbstractLinearSolver", "GMRES", "Dense"]
 #: Restarting throws the Krylov space away; near the resistance peak the preconditioned sphere
 #: solves need ~20-35 iterations per active-set step, so a 12-vector basis restarted 3-10 times
 #: and stagnated on fine grids. Operator applications per solve (half-space, SLS f = 1,
-#: ``zeta = V tau/a0 = 1``, 12 cells per radius): GMRES(12) 576 with the formerly folded
-#: preconditioner and 239 with the whole embedding's, GMRES(32) 112 and 118; at 48 cells the
+#: ``zeta = V tau/a0 = 1``, 12 cells per radius): GMRES(12) 576 with a preconditioner folded
+#: onto one window and 239 with the whole embedding's, GMRES(32) 112 and 118; at 48 cells the
 #: folded one needs 2879 with GMRES(32) and the embedding's 150 (:mod:`.precondition`).
 RESTART_PRECONDITIONED = 32
 RESTART_PLAIN = 80
 #: Basis size of the fallback solve (:class:`GMRES` ``fallback_restart``), from where the first
-#: stopped, when the first misses its tolerance: a safeguard (with GMRES(12) and the folded
+#: stopped, when the first misses its tolerance: a safeguard (with GMRES(12) and a folded
 #: preconditioner it rescued the 24-32 cells-per-radius solves that stagnated at a relative
 #: residual of 1e-2..1e-4 and made the active set cycle; GMRES(96) reached 1e-13 in one cycle).
 FALLBACK_RESTART = 96
