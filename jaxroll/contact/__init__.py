@@ -27,7 +27,6 @@ from .operator import (
     periodic_kernel,
     periodic_offsets,
     periodic_window_kernel,
-    preconditioner_size,
     toeplitz_operator,
     windowed_compliance,
 )
@@ -50,7 +49,6 @@ __all__ = [
     "periodic_offsets",
     "toeplitz_operator",
     "embedding_size",
-    "preconditioner_size",
     "fold_offsets",
     "circulant_window_apply",
     "edge_gap_scale",

@@ -30,19 +30,22 @@ from .._numerics import gmres
 
 __all__ = ["AbstractLinearSolver", "GMRES", "Dense"]
 
-#: Default Krylov basis sizes of :class:`GMRES`: with the preconditioner (2D windows: its solves
-#: converge in ~10-40 iterations, and every Arnoldi step orthogonalises against the whole basis,
-#: so a short basis is cheaper) and without.
-RESTART_PRECONDITIONED = 12
+#: Default Krylov basis sizes of :class:`GMRES`: with the preconditioner (2D windows) and without.
+#: Restarting throws the Krylov space away; near the resistance peak the preconditioned sphere
+#: solves need ~20-35 iterations per active-set step, so a 12-vector basis restarted 3-10 times
+#: and stagnated on fine grids. Operator applications per solve (half-space, SLS f = 1,
+#: ``zeta = V tau/a0 = 1``, 12 cells per radius): GMRES(12) 576 with a preconditioner folded
+#: onto one window and 239 with the whole embedding's, GMRES(32) 112 and 118; at 48 cells the
+#: folded one needs 2879 with GMRES(32) and the embedding's 150 (:mod:`.precondition`).
+RESTART_PRECONDITIONED = 32
 RESTART_PLAIN = 80
-#: Basis size of the fallback solve (:class:`GMRES` ``fallback_restart``). Restarting loses the
-#: Krylov space: at 24-32 cells per contact radius the preconditioned sphere solves need ~30-60
-#: iterations, and GMRES(12) and GMRES(24) stagnated there (relative residual 1e-2..1e-4 after
-#: 1600 iterations), which made the active set cycle; GMRES(96) reached 1e-13 in one cycle.
+#: Basis size of the fallback solve (:class:`GMRES` ``fallback_restart``), from where the first
+#: stopped, when the first misses its tolerance: a safeguard (with GMRES(12) and a folded
+#: preconditioner it rescued the 24-32 cells-per-radius solves that stagnated at a relative
+#: residual of 1e-2..1e-4 and made the active set cycle; GMRES(96) reached 1e-13 in one cycle).
 FALLBACK_RESTART = 96
-#: Restart cycles of the first solve before it hands over to the fallback (a solve at the paper's
-#: resolution takes 3-4 cycles of 12).
-FIRST_SOLVE_CYCLES = 16
+#: Restart cycles of the first solve before it hands over to the fallback.
+FIRST_SOLVE_CYCLES = 8
 #: Krylov iterations of a solve without fallback (restarts = this // restart), and of the fallback
 #: solve (which follows at most ``FIRST_SOLVE_CYCLES`` cycles of the first).
 MAX_KRYLOV_ITERATIONS = 1600
@@ -88,7 +91,7 @@ class GMRES(AbstractLinearSolver):
             the solves robust at fine resolution, where a short basis stagnates.
         preconditioner: right-precondition with the circulant approximation of the compliance on
             the contact set (:mod:`jaxroll.contact.precondition`). Default ``None``: on for 2D
-            windows (the 3D sphere: 4-5x fewer operator applications), off in 1D (the default
+            windows (the 3D sphere: 4-15x fewer operator applications), off in 1D (the default
             cylinder solve gains only 1.1x, and at 100 cells per half-width the preconditioned
             GMRES stalled above the tolerance where the plain one converges). The converged
             solution and its derivatives do not depend on it (to the tolerance).

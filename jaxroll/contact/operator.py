@@ -62,7 +62,6 @@ __all__ = [
     "periodic_window_kernel",
     "toeplitz_operator",
     "embedding_size",
-    "preconditioner_size",
     "fold_offsets",
     "circulant_window_apply",
 ]
@@ -264,18 +263,6 @@ def embedding_size(window: int) -> int:
     smallest ``2^a 3^b 5^c 7^d >= 2 W - 1`` (``2 W`` itself can hold a large prime factor, e.g.
     106 = 2 x 53, which made the paper's 53-cell window 1.9x slower than the 55-cell one)."""
     return _smooth_size(2 * int(window) - 1)
-
-
-def preconditioner_size(window: int) -> int:
-    """The FFT size of the contact preconditioner's periodic operator on a ``window``-cell axis:
-    the smallest ``2^a 3^b 5^c 7^d >= W + 1``, about half the exact embedding.
-
-    The preconditioner inverts the coefficients folded onto this period (:func:`fold_offsets`):
-    an approximation of the window's Toeplitz operator, as the circulant inverse on the contact
-    set already is. Measured on the paper's reference case (55-cell window: 56 instead of 112
-    points per axis), GMRES needs 1-3 % more iterations and each preconditioner application
-    costs a quarter: the case runs ~17 % faster."""
-    return _smooth_size(int(window) + 1)
 
 
 def fold_offsets(offsets, embedding):

@@ -1,4 +1,4 @@
-"""Preconditioner of the contact systems: the inverse of a periodic approximation of ``C``.
+"""Preconditioner of the contact systems: the inverse of the circulant embedding of ``C``.
 
 For the block system ``[[B, u], [v^T, c]]`` of a contact set (``B``: gap rows on the set and
 pressure rows off it, ``u``: the ``d`` column, ``v``: the last row, ``c``: its corner) with an
@@ -7,15 +7,17 @@ approximate inverse ``P`` of ``B``, the exact block elimination (Schur complemen
     ``d = (r2 - v.P r1) / (c - v.P u)``,  ``p = P (r1 - u d)``
 
 is applied. ``P`` acts on the cells in the set (row weights ``w_in`` of ``C``) as the inverse of
-the coefficients folded onto a period of about one window (:func:`~jaxroll.contact.operator.
-preconditioner_size`: an ``E``-periodic operator, divided by its Fourier multiplier) and as a
-diagonal ``w_out`` elsewhere. It is built from ``stop_gradient`` data: it changes the GMRES
-iterations, never the converged solution, so the implicit derivatives do not depend on it.
+the circulant embedding that applies ``C`` (:func:`~jaxroll.contact.operator.embedding_size`:
+every window offset once, none aliased; divided by its Fourier multiplier) and as a diagonal
+``w_out`` elsewhere. It is built from ``stop_gradient`` data: it changes the GMRES iterations,
+never the converged solution, so the implicit derivatives do not depend on it.
 
-Measured on the paper's reference case (55-cell window: 56 instead of 112 points per axis), GMRES
-needs 1-3 % more iterations with the folded period than with the exact embedding and each
-application costs a quarter. The Krylov iterations drop 4-9x for the 3D sphere (e.g.
-``P = 150 N``: 942 -> 101 operator applications per solve) and 2.5-4x in 1D; the same
+Why the whole embedding: a period of about one window (the coefficients folded onto ``W + 1``
+points per axis, a quarter of the cost per application) aliases the long-range part of the
+viscoelastic kernel, strongest near the resistance peak, and the preconditioned spectrum spreads
+as the grid is refined. Measured on a half-space sphere (SLS f = 1, ``zeta = V tau/a0 = 1``,
+operator applications per solve, GMRES(32)): folded 112 / 215 / 2879 at 12 / 24 / 48 cells per
+radius, the whole embedding 118 / 173 / 150; at 1.5 windows still 940 at 48 cells. The same
 preconditioner (transposed for the adjoint) serves the implicit-differentiation solves and, with
 the soft-min weights, the Newton steps of the smoothed contact edge.
 """
@@ -26,15 +28,15 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .operator import WindowedCompliance, circulant_window_apply, fold_offsets, preconditioner_size
+from .operator import WindowedCompliance, circulant_window_apply
 from .system import ContactSystem, flat
 
 __all__ = ["CirculantPreconditioner"]
 
 #: Floor of the modulus of the preconditioner's Fourier multiplier, relative to its maximum.
-#: The folded multiplier can vanish: ``K_0 = 0`` (zero-mean periodic displacement) makes the
-#: window sum of the influence coefficients, i.e. its ``q = 0`` mode, ~0 when they decay within
-#: the window (thin layers). Flooring (phase kept) keeps the preconditioner bounded; it affects
+#: The multiplier can vanish: ``K_0 = 0`` (zero-mean periodic displacement) makes the sum of the
+#: window's influence coefficients, i.e. its ``q = 0`` mode, ~0 when they decay within the
+#: window (thin layers). Flooring (phase kept) keeps the preconditioner bounded; it affects
 #: only modes the contact set barely sees (the sphere at the paper's resolution has min/max
 #: ~3e-3: unchanged).
 PRECONDITIONER_FLOOR = 1e-3
@@ -44,9 +46,9 @@ class CirculantPreconditioner(eqx.Module):
     """Approximate inverse of a scaled contact system (see the module docstring).
 
     Attributes:
-        inverse_multiplier: Fourier multiplier of the folded periodic inverse.
+        inverse_multiplier: Fourier multiplier of the inverse of the circulant embedding.
         scale: ``g_s/p_s`` (the system's operator is ``C p~ (p_s/g_s)``).
-        embedding: static FFT sizes of the folded period.
+        embedding: static FFT sizes of the embedding.
         shape: static window shape.
     """
 
@@ -59,8 +61,8 @@ class CirculantPreconditioner(eqx.Module):
     def build(cls, compliance: WindowedCompliance, system: ContactSystem) -> "CirculantPreconditioner":
         sg = jax.lax.stop_gradient
         shape = compliance.shape
-        emb = tuple(preconditioner_size(w) for w in shape)
-        mult = jnp.fft.rfftn(fold_offsets(sg(compliance.offsets), emb))
+        emb = compliance.embedding
+        mult = sg(compliance.multiplier)  # the embedding that applies C (rfftn of its coefficients)
         mod = jnp.abs(mult)
         floor = PRECONDITIONER_FLOOR * jnp.max(mod)
         big = mod >= floor
