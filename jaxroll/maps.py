@@ -141,10 +141,11 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
     order = jnp.asarray(np.argsort(np.log(np.asarray(Vp)) + np.asarray(shift.log_shift(Tp)), kind="stable"))
     args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(load, float), Tp, Vp,
             order)
-    program = _map_program.lower(*args, geometry=geometry).compile()
+    static = dict(geometry=geometry, reduced=_reduced(method, layer))
+    program = _map_program.lower(*args, **static).compile()
     t0 = time.perf_counter()
     v, code, dT, dH, a = (np.asarray(x).reshape(T.shape[0], V.shape[0])
-                          for x in jax.block_until_ready(program(*args)))
+                          for x in jax.block_until_ready(program(*args, **static)))
     seconds = (time.perf_counter() - t0) / v.size
     outside = np.zeros(v.shape, bool)
     if measured_temperatures is not None:
@@ -161,8 +162,20 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
     return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))
 
 
+def _reduced(method, layer) -> bool:
+    """Whether the map evaluates the reference material at the reduced speed ``V a_T(T)``: the
+    full models on a layer without inertia, where ``G*(q V; T) = G*_ref(q V a_T)`` makes the
+    whole contact problem (kernel, contact size estimate, period check ``V tau_max``) that of the
+    reference material at ``V a_T``. One material for all points lets the full models do the
+    layer's speed-independent work once (:meth:`~jaxroll.methods.Full.evaluate_points`)."""
+    from .engines.layer import is_quasistatic
+    from .methods import Full
+
+    return isinstance(method, Full) and is_quasistatic(layer)
+
+
 @eqx.filter_jit
-def _map_program(method, material, shift, layer, R, P, T, V, order, *, geometry):
+def _map_program(method, material, shift, layer, R, P, T, V, order, *, geometry, reduced):
     """Values, result codes, ``dR/dT``, ``dR/dH`` and contact radii at the points ``(T, V)``
     (1D), all points by :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in ``order``
     (the full models: one ``lax.scan``, each point warm-started from the previous one). The
@@ -170,13 +183,17 @@ def _map_program(method, material, shift, layer, R, P, T, V, order, *, geometry)
     ``dR_i/dT_i`` at once (each point depends on its own temperature only; the warm starts carry
     no derivative), ``dH = 1`` every ``dR_i/dH``."""
     from .engines.layer import Layer
-    from .materials.material import at_temperature
+    from .materials.material import at_temperature, shift_factor
     from .rolling import _validated
 
     def values(T, H):
         lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
         mats = jax.vmap(lambda t: at_temperature(material, shift, t).checked())(T)
-        res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, None, 0), order=order)
+        if reduced:  # the reference material at V a_T (see _reduced)
+            res = method.evaluate_points(material, lay, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
+                                         geometry, axes=(None, None, None, None, 0), order=order)
+        else:
+            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, None, 0), order=order)
         res = jax.vmap(lambda r, m, v: _validated(method, m, lay, r, R, P, v, geometry))(res, mats, V)
         return res.value, (res.result, res.contact_radius)
 
