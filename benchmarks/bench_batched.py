@@ -109,6 +109,11 @@ def reference_rows(args, rows):
                                               speeds=V, method=fit_method).value
         return jax.jacfwd(values)(logp)
 
+    def fit_forward(logp, P, V):
+        G0, tau, f = jnp.exp(logp)
+        return jr.rolling_resistance_grid(jr.StandardLinearSolid(G0, tau, f), jr.Layer(0.03), radius=R, loads=P,
+                                          speeds=V, method=fit_method).value
+
     VV, PP = (x.ravel() for x in jnp.meshgrid(speeds, loads, indexing="ij"))
     base = (3e6, 0.03, loads, speeds)
     t_c, c_table = _compile(table, *base)
@@ -120,6 +125,7 @@ def reference_rows(args, rows):
     ss_c, c_ss = _compile(lambda Hs: sweep_H(Hs, False), Hs)
     lp = jnp.log(jnp.asarray([3e6, 0.25, 1.0]))
     j_c, c_jac = _compile(fit_jacobian, lp, loads, speeds)
+    f_c, c_fwd = _compile(fit_forward, lp, loads, speeds)
     rep = args.repeat
     t_table, t_single, t_points = _alternate([(t_c, base), (s_c, (3e6, 0.03, 100.0, 0.01)),
                                               (p_c, (3e6, 0.03, PP, VV))], rep)
@@ -127,7 +133,7 @@ def reference_rows(args, rows):
     t_table2, t_vmap, t_pH = _alternate([(t_c, base), (v_c, (Hs,)), (h_c, (Hs,))], rep)
     check_H = float(jnp.max(jnp.abs(h_c(Hs) / v_c(Hs) - 1)))
     t_table4, t_sv, t_ss = _alternate([(t_c, base), (sv_c, (Hs,)), (ss_c, (Hs,))], rep)
-    t_table3, t_jac = _alternate([(t_c, base), (j_c, (lp, loads, speeds))], rep)
+    t_table3, t_jac, t_fwd = _alternate([(t_c, base), (j_c, (lp, loads, speeds)), (f_c, (lp, loads, speeds))], rep)
     per = lambda t, k: t / k  # noqa: E731
     ref = statistics.median([per(t_table, n), per(t_table2, n), per(t_table3, n), per(t_table4, n)])
     size = f"{speeds.size}x{loads.size}, cells {cells * 1e3:g} mm, window {window}"
@@ -145,8 +151,10 @@ def reference_rows(args, rows):
          f"front door per point: {t_sv:.3f} s"),
         ("jr.sweep H x20 (vectorize=False)", per(t_ss, 20), c_ss, per(t_ss, 20) / per(t_table4, n),
          f"front door per point, one after the other: {t_ss:.3f} s"),
+        ("fit forward (the table, edge_smoothing 0.5)", per(t_fwd, n), c_fwd, per(t_fwd, n) / per(t_table3, n),
+         f"{t_fwd:.2f} s per table of {n} points"),
         ("fit Jacobian (jacfwd of the table, 3 params)", per(t_jac, n), c_jac, per(t_jac, n) / per(t_table3, n),
-         f"edge_smoothing 0.5; {t_jac:.2f} s per Jacobian of {n} points"),
+         f"edge_smoothing 0.5; {t_jac:.2f} s per Jacobian of {n} points ({t_jac / t_fwd:.1f}x its forward table)"),
     ]
     return ref
 
