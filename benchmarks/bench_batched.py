@@ -95,7 +95,8 @@ def reference_rows(args, rows):
         return jax.vmap(lambda H: single(3e6, H, 100.0, 0.01))(Hs)
 
     def points_H(Hs):
-        return method.evaluate_points(MAT, jr.Layer(Hs), R, 100.0, 0.01, "sphere", axes=(None, 0, None, None, None)).value
+        return method.evaluate_points(MAT, jr.Layer(Hs), R, 100.0, 0.01, "sphere",
+                                      axes=(None, 0, None, None, None)).value
 
     def sweep_H(Hs, vectorize):
         return jr.sweep(lambda H: single(3e6, H, 100.0, 0.01), Hs, vectorize=vectorize)
@@ -202,7 +203,8 @@ def map_rows(args, rows):
     n = k * k
     tm, tt = statistics.median(t_map), statistics.median(t_table)
     rows += [
-        ("table of the map's reduced speeds (baseline)", tt / n, comp, 1.0, f"{n} speeds x 1 load, window {grid.window}"),
+        ("table of the map's reduced speeds (baseline)", tt / n, comp, 1.0,
+         f"{n} speeds x 1 load, window {grid.window}"),
         (f"resistance_map {k}x{k} (values, dR/dT, dR/dH)", tm / n, first - tm, tm / tt,
          f"measured Prony ({pf.n_terms} terms) + WLF: {tm:.2f} s per map (call, incl. grid sizing); "
          f"{m.valid.mean() * 100:.0f} % valid"),
@@ -220,7 +222,8 @@ def main():
     rows = []
     reference_rows(args, rows)
     map_rows(args, rows)
-    print(f"load average {os.getloadavg()[0]:.1f} at the end; medians of {args.repeat}, alternating with the baseline\n")
+    print(f"load average {os.getloadavg()[0]:.1f} at the end; medians of {args.repeat}, alternating with the "
+          f"baseline\n")
     print("| entry | per point | compile | ratio to the table | note |")
     print("|---|---|---|---|---|")
     for name, pp, comp, ratio, note in rows:
