@@ -16,7 +16,8 @@ layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
 * ``map``: ``jr.resistance_map`` of the shipped measured Prony material
   (``pyvisco_freq_user_raw.csv``: WLF, Prony fit) on a 10 mm layer, 10 N, R = 1 cm, 253..373 K x
   1e-3..10 m/s, values with dR/dT and dR/dH (automatic grid), with its baseline: the table of the
-  same reduced speeds ``V a_T`` (one load) on the same grid, without derivatives;
+  same reduced speeds ``V a_T`` (one load) on the same grid, without derivatives; ``--vmap-map``
+  adds the map's program before batching (``jax.vmap`` of ``value_and_grad`` of the front door);
 * ``jr.sweep H x20``: the front door over the same 20 thicknesses through ``jr.sweep``, chunks
   vectorised (default) and ``vectorize=False`` (points one after the other);
 * ``fit Jacobian``: ``jax.jacfwd`` of the table w.r.t. log(G0, tau, f) with the fit's default
@@ -192,7 +193,8 @@ def map_rows(args, rows):
 
     c, comp = _compile(table, reduced)
     jax.block_until_ready(c(reduced))
-    t_map, t_table = [], []
+    vmapped = _vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, method) if args.vmap_map else None
+    t_map, t_table, t_vmapped = [], [], []
     for _ in range(args.repeat):
         t = time.perf_counter()
         jax.block_until_ready(c(reduced))
@@ -200,8 +202,19 @@ def map_rows(args, rows):
         t = time.perf_counter()
         run_map()
         t_map.append(time.perf_counter() - t)
+        if vmapped is not None:
+            t = time.perf_counter()
+            out = jax.block_until_ready(vmapped[0]())
+            t_vmapped.append(time.perf_counter() - t)
     n = k * k
     tm, tt = statistics.median(t_map), statistics.median(t_table)
+    if vmapped is not None:
+        tv = statistics.median(t_vmapped)
+        diff = [float(np.nanmax(np.abs(a / np.asarray(b) - 1))) for a, b in
+                zip((m.value, m.dR_dT, m.dR_dH), (out[0], out[2], out[3]))]
+        rows.append((f"map {k}x{k} as before: jit(vmap(vmap(value_and_grad(front door))))", tv / n, vmapped[1], tv / tt,
+                     f"{tv:.2f} s per run (the old resistance_map ran it twice per call); max rel. diff. to the new "
+                     f"map: value {diff[0]:.1e}, dR/dT {diff[1]:.1e}, dR/dH {diff[2]:.1e}"))
     rows += [
         ("table of the map's reduced speeds (baseline)", tt / n, comp, 1.0,
          f"{n} speeds x 1 load, window {grid.window}"),
@@ -211,10 +224,30 @@ def map_rows(args, rows):
     ]
 
 
+def _vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, method):
+    """``(call, compile seconds)`` of the map program before batching: ``jax.value_and_grad`` of
+    the front door w.r.t. (T, H), vmapped over both axes (what ``resistance_map`` compiled)."""
+    def one(T, V, H):
+        r = jr.rolling_resistance(jr.at_temperature(pf.material, wlf.shift, T), jr.Layer(H), radius=radius, load=load,
+                                  speed=V, method=method, throw=False)
+        return r.value, r.result
+
+    def value_and_grads(T, V, H):
+        (v, code), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(T, V, H)
+        return v, code, g[0], g[1]
+
+    grid = jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None))
+    args = (jnp.asarray(Ts), jnp.asarray(Vs), jnp.asarray(layer.H))
+    compiled, comp = _compile(grid, *args)
+    return (lambda: compiled(*args)), comp
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="coarse grid, 6x15 table, 7x7 map")
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--vmap-map", action="store_true",
+                    help="also time the map program before batching (vmapped value_and_grad of the front door)")
     args = ap.parse_args()
     dev = jax.devices()[0]
     print(f"device: {dev.platform} {dev.device_kind} x {len(jax.devices())}; cpu count {os.cpu_count()}; "

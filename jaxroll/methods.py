@@ -314,7 +314,8 @@ class Full(_GridMethod):
         size estimates and of the loads), so give an order in which neighbours are alike (e.g.
         sorted by speed, or by reduced speed ``V a_T`` over temperatures). Unlike ``jax.vmap``
         of :meth:`evaluate`, whose while loops run every lane to the slowest lane's count from a
-        cold start, each point costs what it costs in :meth:`evaluate_grid`'s table. Each
+        cold start, each point costs about a point of :meth:`evaluate_grid`'s table, plus its own
+        kernel (and the layer's integrals when the layer is batched). Each
         point equals :meth:`evaluate` to the solver tolerance; derivatives are implicit per
         point (the start is data only)."""
         model = _FULL_MODELS[geometry]
