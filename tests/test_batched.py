@@ -122,3 +122,13 @@ def test_fit_central_difference_jacobian_runs_the_tables_one_after_the_other():
     _, J_ad = _residuals_and_jacobian_jit(logp, model, data, _Problem(params, RADIUS, "sphere", method, None))
     _, J_fd = _residuals_and_jacobian_jit(logp, model, data, _Problem(params, RADIUS, "sphere", method, 1e-4))
     np.testing.assert_allclose(np.asarray(J_fd), np.asarray(J_ad), rtol=1e-5, atol=1e-5 * float(jnp.max(jnp.abs(J_ad))))
+
+
+def test_points_need_one_batch_length():
+    """axes other than 0/None, or batched arguments of different lengths, raise before tracing."""
+    with pytest.raises(ValueError, match="0 \\(batched\\) or None"):
+        SPHERE.evaluate_points(PAPER, jr.Layer(0.03), RADIUS, jnp.ones(3), jnp.ones(3), "sphere",
+                               axes=(None, None, None, 1, 0))
+    with pytest.raises(ValueError, match="one common leading length"):
+        SPHERE.evaluate_points(PAPER, jr.Layer(0.03), RADIUS, jnp.ones(3), jnp.ones(4), "sphere",
+                               axes=(None, None, None, 0, 0))
