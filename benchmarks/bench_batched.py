@@ -246,6 +246,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="coarse grid, 6x15 table, 7x7 map")
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--only", choices=["reference", "map"], help="only the reference-case rows or the map rows")
     ap.add_argument("--vmap-map", action="store_true",
                     help="also time the map program before batching (vmapped value_and_grad of the front door)")
     args = ap.parse_args()
@@ -253,8 +254,10 @@ def main():
     print(f"device: {dev.platform} {dev.device_kind} x {len(jax.devices())}; cpu count {os.cpu_count()}; "
           f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
     rows = []
-    reference_rows(args, rows)
-    map_rows(args, rows)
+    if args.only in (None, "reference"):
+        reference_rows(args, rows)
+    if args.only in (None, "map"):
+        map_rows(args, rows)
     print(f"load average {os.getloadavg()[0]:.1f} at the end; medians of {args.repeat}, alternating with the "
           f"baseline\n")
     print("| entry | per point | compile | ratio to the table | note |")
