@@ -34,6 +34,7 @@ QUICK = [
     ("direct_vs_full.py", ["--quick", "--cases", "30mm"]),
     ("default_method.py", ["--quick"]),
     ("bench_defaults.py", ["--quick"]),
+    ("bench_batched.py", ["--quick"]),
     ("multihost_example.py", ["--quick", "--launch-local", "2", "--model", "direct"]),
     ("bench_tamaas.py", ["--quick"]),  # needs the optional peer tamaas (pip install ".[peer]")
 ]

@@ -83,7 +83,11 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
                    method=None, measured_temperatures=None, measured_frequencies=None) -> ResistanceMap:
     """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
     ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
-    ``dR_r/dH`` from ``jax.grad``, all points in one compiled, vmapped program.
+    ``dR_r/dH`` (forward-mode derivatives), all points in one compiled program
+    (:meth:`~jaxroll.methods.AbstractMethod.evaluate_points`: the full models solve the points
+    one after the other in the order of the reduced speed ``V a_T``, each warm-started from the
+    previous one; per point the numbers of :func:`jaxroll.rolling_resistance` to the solver
+    tolerance).
 
     Args:
         material: e.g. the :class:`PronyFit`'s ``material``; shift: its WLF/Arrhenius law.
@@ -110,38 +114,38 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
     """
     import time
 
-    from .engines.layer import Layer
+    from ._numerics import check_roller_values
     from .grids import union
     from .materials.material import at_temperature
     from .methods import as_method, default_method
     from .result import RESULTS
-    from .rolling import rolling_resistance
 
     T = jnp.asarray(np.asarray(temperatures, float))
     V = jnp.asarray(np.asarray(speeds, float))
     # the map's points are traced: the plausibility of its concrete inputs is checked here
     check_plausible("resistance_map", radius=radius, H=layer.H, G0=material.relaxed_modulus(), speed=V)
+    check_roller_values(radius, load, V)
+    material.checked(), layer.checked()
+    if not np.all(np.asarray(T) > 0):
+        raise ValueError("temperatures must be positive [K]")
     method = as_method(default_method(geometry) if method is None else method)
+    method.check_geometry(geometry)
     if method.needs_resolution(geometry):  # one grid for the map: the union of the coldest and hottest
         method = eqx.tree_at(lambda m: m.grid, method, union([
             method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=[load], speeds=V,
                            geometry=geometry).grid for Ti in (float(np.min(T)), float(np.max(T)))]))
-
-    def one(Ti, Vi, H):
-        lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
-        r = rolling_resistance(at_temperature(material, shift, Ti), lay, radius=radius, load=load, speed=Vi,
-                               geometry=geometry, method=method, throw=False)
-        return r.value, (r.result, r.contact_radius)
-
-    def value_and_grads(Ti, Vi, H):
-        (v, (code, a)), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(Ti, Vi, H)
-        return v, code, g[0], g[1], a
-
-    grid = jax.jit(jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None)))
-    H = jnp.asarray(layer.H)
-    jax.block_until_ready(grid(T, V, H))  # compile
+    method.check_memory(geometry)
+    Tp, Vp = (a.ravel() for a in jnp.meshgrid(T, V, indexing="ij"))
+    # solved in the order of the reduced speed V a_T: under time-temperature superposition the
+    # contact depends on T and V through it (up to the layer's inertia), so neighbours are alike
+    order = jnp.asarray(np.argsort(np.log(np.asarray(Vp)) + np.asarray(shift.log_shift(Tp)), kind="stable"))
+    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(load, float), Tp, Vp,
+            order)
+    static = dict(geometry=geometry, reduced=_reduced(method, layer))
+    program = _map_program.lower(*args, **static).compile()
     t0 = time.perf_counter()
-    v, code, dT, dH, a = (np.asarray(x) for x in jax.block_until_ready(grid(T, V, H)))
+    v, code, dT, dH, a = (np.asarray(x).reshape(T.shape[0], V.shape[0])
+                          for x in jax.block_until_ready(program(*args, **static)))
     seconds = (time.perf_counter() - t0) / v.size
     outside = np.zeros(v.shape, bool)
     if measured_temperatures is not None:
@@ -156,3 +160,44 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         outside |= ~((w >= lo * (1 - 1e-9)) & (w <= hi * (1 + 1e-9)))
     code = np.where(outside & (code == RESULTS.successful), RESULTS.outside_measured_range, code)
     return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))
+
+
+def _reduced(method, layer) -> bool:
+    """Whether the map evaluates the reference material at the reduced speed ``V a_T(T)``: the
+    full models on a layer without inertia, where ``G*(q V; T) = G*_ref(q V a_T)`` makes the
+    whole contact problem (kernel, contact size estimate, period check ``V tau_max``) that of the
+    reference material at ``V a_T``. One material for all points lets the full models do the
+    layer's speed-independent work once (:meth:`~jaxroll.methods.Full.evaluate_points`)."""
+    from .engines.layer import is_quasistatic
+    from .methods import Full
+
+    return isinstance(method, Full) and is_quasistatic(layer)
+
+
+@eqx.filter_jit
+def _map_program(method, material, shift, layer, R, P, T, V, order, *, geometry, reduced):
+    """Values, result codes, ``dR/dT``, ``dR/dH`` and contact radii at the points ``(T, V)``
+    (1D), all points by :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in ``order``
+    (the full models: one ``lax.scan``, each point warm-started from the previous one). The
+    derivatives are forward mode: the tangent ``dT = 1`` at every point gives every
+    ``dR_i/dT_i`` at once (each point depends on its own temperature only; the warm starts carry
+    no derivative), ``dH = 1`` every ``dR_i/dH``."""
+    from .engines.layer import Layer
+    from .materials.material import at_temperature, shift_factor
+    from .rolling import _validated
+
+    def values(T, H):
+        lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
+        mats = jax.vmap(lambda t: at_temperature(material, shift, t).checked())(T)
+        if reduced:  # the reference material at V a_T (see _reduced)
+            res = method.evaluate_points(material, lay, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
+                                         geometry, axes=(None, None, None, None, 0), order=order)
+        else:
+            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, None, 0), order=order)
+        res = jax.vmap(lambda r, m, v: _validated(method, m, lay, r, R, P, v, geometry))(res, mats, V)
+        return res.value, (res.result, res.contact_radius)
+
+    H = jnp.asarray(layer.H, float)
+    tangents = (jnp.stack([jnp.ones_like(T), jnp.zeros_like(T)]), jnp.asarray([0.0, 1.0]))
+    v, dv, (code, a) = jax.vmap(lambda dT, dH: jax.jvp(values, (T, H), (dT, dH), has_aux=True))(*tangents)
+    return v[0], code[0], dv[0], dv[1], a[0]

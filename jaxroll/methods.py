@@ -25,6 +25,7 @@ values).
 from __future__ import annotations
 
 import abc
+import functools
 
 import equinox as eqx
 import jax
@@ -66,6 +67,22 @@ class AbstractMethod(eqx.Module):
         point by :meth:`evaluate` (``lax.map`` over speeds, ``vmap`` over loads)."""
         return jax.lax.map(lambda V: jax.vmap(lambda P: self.evaluate(material, layer, R, P, V, geometry))(loads),
                            speeds)
+
+    def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0),
+                        order=None) -> RollingResult:
+        """``R_r`` at ``n`` points: each of ``material``, ``layer``, ``R`` [m], ``P`` [N or
+        N/m], ``V`` [m/s] is batched along a leading axis of length ``n`` (``axes`` entry 0:
+        every array leaf has it; scalar leaves are shared, so ``jr.Layer(H=thicknesses)`` keeps
+        its Python-float ``rho = 0``, the quasi-static formulation) or shared by every point
+        (``None``). ``order``: a permutation of ``range(n)``, the order the points are solved
+        in (methods that warm-start along the batch, :meth:`Full.evaluate_points`); results
+        are in the given point order either way. Default: ``jax.vmap`` of :meth:`evaluate`."""
+        del order
+        args = (material, layer, R, P, V)
+        _batch_size(args, axes)
+        in_axes = tuple(None if ax is None else jax.tree_util.tree_map(lambda x: 0 if np.ndim(x) else None, a)
+                        for a, ax in zip(args, axes))
+        return jax.vmap(lambda m, l, r, p, v: self.evaluate(m, l, r, p, v, geometry), in_axes=in_axes)(*args)
 
     def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere") -> "AbstractMethod":
         """This method with every :class:`~jaxroll.grids.AutoGrid` replaced by the
@@ -288,6 +305,72 @@ class Full(_GridMethod):
             return first, out
 
         return jax.lax.scan(one_speed, _contact.WarmStart.none(shape), speeds)[1]
+
+    def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None):
+        """``R_r`` at ``n`` points (arguments batched or shared as in
+        :meth:`AbstractMethod.evaluate_points`), solved one after the other in a ``lax.scan``
+        along ``order`` (default: as given): each solve starts from the previous point's
+        solution (:meth:`jaxroll.contact.WarmStart.stretched` by the ratio of the stationary
+        size estimates and of the loads), so give an order in which neighbours are alike (e.g.
+        sorted by speed, or by reduced speed ``V a_T`` over temperatures). Unlike ``jax.vmap``
+        of :meth:`evaluate`, whose while loops run every lane to the slowest lane's count from a
+        cold start, each point costs about a point of :meth:`evaluate_grid`'s table, plus its own
+        kernel (and the layer's integrals when the layer is batched). Each
+        point equals :meth:`evaluate` to the solver tolerance; derivatives are implicit per
+        point (the start is data only)."""
+        model = _FULL_MODELS[geometry]
+        args = (material, layer, R, P, V)
+        n = _batch_size(args, axes)
+        if order is not None:
+            order = jnp.asarray(order)
+            args = _take(args, axes, order)
+        at = functools.partial(_take, args, axes)  # the point at an index
+
+        def size_and_load(i):
+            m, l, r, p, _ = at(i)
+            return estimate_contact_size(m, l, r, p, geometry), jnp.asarray(p, float)
+
+        sizes, loads = jax.vmap(size_and_load)(jnp.arange(n))
+        # the stretch and load ratio from each point to the next (the last pair is not used)
+        stretch = jnp.append(sizes[1:] / sizes[:-1], 1.0)
+        ratio = jnp.append(loads[1:] / loads[:-1], 1.0)
+
+        # material and layer shared: their speed-independent work once (as in evaluate_grid)
+        shared = model.kernel_builder(material, layer, self.grid) if axes[0] is None and axes[1] is None else None
+
+        def step(start, xs):
+            i, s_next, r_next = xs
+            m, l, r, p, v = at(i)
+            kernel = (shared or model.kernel_builder(m, l, self.grid))(v)
+            s = self._solve(model, kernel, r, p, sizes[i], init=start)
+            return _contact.WarmStart.stretched(s.contact, s_next, r_next), model.result(s, self.grid, l, v, m)
+
+        shape = (self.grid.window,) * self.grid_ndim(geometry)
+        out = jax.lax.scan(step, _contact.WarmStart.none(shape), (jnp.arange(n), stretch, ratio))[1]
+        if order is None:
+            return out
+        inverse = jnp.zeros(n, order.dtype).at[order].set(jnp.arange(n, dtype=order.dtype))
+        return jax.tree_util.tree_map(lambda x: x[inverse], out)
+
+
+def _take(args, axes, index):
+    """``args`` at ``index`` along the leading axis of the batched arguments' array leaves;
+    scalar leaves (e.g. a layer's Python-float ``rho = 0``, which keeps the quasi-static
+    formulation) are shared."""
+    pick = lambda x: x[index] if np.ndim(x) else x  # noqa: E731
+    return tuple(a if ax is None else jax.tree_util.tree_map(pick, a) for a, ax in zip(args, axes))
+
+
+def _batch_size(args, axes) -> int:
+    """The common leading length of the batched arguments' array leaves (``axes`` entry 0)."""
+    if len(axes) != len(args) or any(ax not in (0, None) for ax in axes):
+        raise ValueError(f"axes must give 0 (batched) or None (shared) for each of material, layer, R, P, V; "
+                         f"got {axes!r}")
+    sizes = {np.shape(x)[0] for a, ax in zip(args, axes) if ax == 0 for x in jax.tree_util.tree_leaves(a)
+             if np.ndim(x)}
+    if len(sizes) != 1:
+        raise ValueError(f"the batched arguments need one common leading length; got {sorted(sizes)}")
+    return sizes.pop()
 
 
 class Slices(_GridMethod):

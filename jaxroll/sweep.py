@@ -13,8 +13,10 @@ How it runs
 The ``N`` points are split evenly over a one-axis device mesh (``jax.make_mesh`` with
 ``AxisType.Auto``: under the default Explicit axes a vmapped ``jnp.linalg.solve`` raises
 ``ShardingTypeError``), and inside ``jax.shard_map`` each device walks its share in chunks of
-``chunk_size`` points with a ``lax.scan`` over ``jax.vmap(fn)``: the working memory is that of
-one vectorised chunk per device, whatever ``N`` is. ``N`` need not divide anything: the points
+``chunk_size`` points with a ``lax.scan`` over ``jax.vmap(fn)`` (or, ``vectorize=False``, over a
+``lax.map`` of ``fn``: the points of a chunk one after the other, for iterative solvers whose
+while loops would otherwise run every lane to the slowest lane's count): the working memory is
+that of one chunk per device, whatever ``N`` is. ``N`` need not divide anything: the points
 are padded to ``devices * n_chunks * chunk`` (points by repeating the last point, grids by
 clamping the flat index, so the padding is always a valid parameter point and cannot raise or
 produce NaN) and the padding is sliced off afterwards. Grid points are never materialised: each
@@ -280,6 +282,7 @@ def sweep(
     devices: int | Sequence[jax.Device] | None = None,
     progress: bool | Callable[[int, int], Any] = False,
     checkpoint: bool = True,
+    vectorize: bool = True,
 ):
     """Evaluate ``fn`` at every point of a grid or point list, chunked and sharded.
 
@@ -307,6 +310,13 @@ def sweep(
             backward pass: the gradient's working memory stays bounded by one chunk per
             device too (docs/design.md sec. 4: 1.5 GB without, 150 MiB with). No effect on a plain
             evaluation; ``False`` skips the recomputation (not faster in our measurement).
+        vectorize: ``True`` (default): each chunk is one ``jax.vmap(fn)``, its points in
+            lockstep lanes (best for closed forms, e.g. the direct method). ``False``: the points
+            of a chunk run one after the other (``lax.map``), each at its own cost: for
+            iterative solvers (the full models), whose while loops under ``vmap`` run every
+            lane to the slowest lane's iteration count (benchmarks/bench_batched.py). For many
+            points of one full model, :meth:`jaxroll.methods.Full.evaluate_points` is faster
+            still: it also starts each solve from the previous point's solution.
 
     Returns:
         The pytree ``fn`` returns, each leaf with the sweep's shape prepended: ``grid.shape``
@@ -331,6 +341,7 @@ def sweep(
     """
     data, run_kw, finish_kw = _prepare(points_or_grid, chunk_size, devices, progress)
     run_kw["checkpoint"] = bool(checkpoint)
+    run_kw["vectorize"] = bool(vectorize)
     if run_kw["report"] is not None:
         run_kw["report"].start()
     padded = _run(fn, data, **run_kw)
@@ -395,11 +406,11 @@ def _prepare(points_or_grid, chunk_size, devices, progress):
     return data, run_kw, dict(n=n, out_shape=out_shape, mesh=mesh)
 
 
-def _compiled(fn, points_or_grid, *, chunk_size=None, devices=None, checkpoint=True):
+def _compiled(fn, points_or_grid, *, chunk_size=None, devices=None, checkpoint=True, vectorize=True):
     """The compiled sweep program (for ``.memory_analysis()`` / ``.cost_analysis()`` in the
     benchmarks): its ``temp_size_in_bytes`` is the working memory per device."""
     data, run_kw, _ = _prepare(points_or_grid, chunk_size, devices, False)
-    return _run.lower(fn, data, checkpoint=checkpoint, **run_kw).compile()
+    return _run.lower(fn, data, checkpoint=checkpoint, vectorize=vectorize, **run_kw).compile()
 
 
 def _is_traced(x) -> bool:
@@ -416,9 +427,9 @@ def _pad_host(x, total: int) -> np.ndarray:
 
 
 @functools.partial(
-    jax.jit, static_argnames=("fn", "grid_key", "n", "mesh", "n_chunks", "chunk", "report", "checkpoint")
+    jax.jit, static_argnames=("fn", "grid_key", "n", "mesh", "n_chunks", "chunk", "report", "checkpoint", "vectorize")
 )
-def _run(fn, data, *, grid_key, n, mesh, n_chunks, chunk, report, checkpoint=True):
+def _run(fn, data, *, grid_key, n, mesh, n_chunks, chunk, report, checkpoint=True, vectorize=True):
     """The sweep program: padded outputs of shape ``(devices * n_chunks * chunk, ...)``,
     sharded over the mesh axis. No collectives."""
     n_dev = mesh.devices.size
@@ -428,7 +439,8 @@ def _run(fn, data, *, grid_key, n, mesh, n_chunks, chunk, report, checkpoint=Tru
     def scan_chunks(point_of, local):
         """Walk ``n_chunks`` chunks of ``chunk`` points; ``point_of(local, i)`` -> chunk i."""
         device = jax.lax.axis_index(_AXIS)
-        batched = jax.checkpoint(jax.vmap(fn)) if checkpoint else jax.vmap(fn)
+        chunk_fn = jax.vmap(fn) if vectorize else functools.partial(jax.lax.map, fn)
+        batched = jax.checkpoint(chunk_fn) if checkpoint else chunk_fn
 
         def step(_, i):
             out = batched(point_of(local, i))

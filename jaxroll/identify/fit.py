@@ -453,8 +453,8 @@ def _residuals(logp, model, data, problem):
 @eqx.filter_jit
 def _residuals_and_jacobian_jit(logp, model, data, problem):
     """``(r, dr/dlogp)``: forward mode (``k`` tangents for ``k`` free parameters), or central
-    differences with step ``problem.jac_step`` in the log-parameters (``2k`` batched
-    evaluations)."""
+    differences with step ``problem.jac_step`` in the log-parameters (``2k`` further
+    evaluations: vmapped, or for the full models' warm-started tables one after the other)."""
     if problem.jac_step is None:
         def f(lp):
             r = _residuals(lp, model, data, problem)
@@ -464,8 +464,13 @@ def _residuals_and_jacobian_jit(logp, model, data, problem):
         return r, J
     k, step = logp.shape[0], problem.jac_step
     E = step * jnp.eye(k, dtype=logp.dtype)
-    rs = jax.vmap(_residuals, in_axes=(0, None, None, None))(jnp.concatenate([logp[None, :], logp + E, logp - E]),
-                                                             model, data, problem)
+    shifted = jnp.concatenate([logp[None, :], logp + E, logp - E])
+    if _use_table(problem.method):
+        # the full model's tables one after the other: under vmap the contact solves of all 2k + 1
+        # tables would run in lockstep, each to the slowest lane's iteration count
+        rs = jax.lax.map(lambda lp: _residuals(lp, model, data, problem), shifted)
+    else:
+        rs = jax.vmap(_residuals, in_axes=(0, None, None, None))(shifted, model, data, problem)
     return rs[0], ((rs[1 : k + 1] - rs[k + 1 :]) / (2.0 * step)).T
 
 

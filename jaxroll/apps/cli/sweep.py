@@ -88,7 +88,10 @@ def run(args) -> int:
                                   method=method, throw=False)
         return r.value, r.result
 
-    values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=args.progress))
+    # the full models' points one after the other: vmapped, each while loop of the contact solver
+    # would run every lane to the slowest lane's count (benchmarks/README.md, "Batched full models")
+    values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=args.progress,
+                                                     vectorize=not isinstance(method, jr.Full)))
     names = list(axes)
     mesh = np.meshgrid(*[np.asarray(axes[n]) for n in names], indexing="ij")
     cols = {n: m.ravel() for n, m in zip(names, mesh)}

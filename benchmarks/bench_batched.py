@@ -1,0 +1,272 @@
+"""Batched full 3D model: cost per point of every batched entry point against the warm-started table.
+
+    python benchmarks/bench_batched.py [--quick] [--repeat 5]
+
+Rows (the paper's sphere: SLS G0 = 3 MPa, tau = 0.25 s, f = 1, R = 2 cm, H = 30 mm, infinite
+layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
+
+* ``table``: ``jr.rolling_resistance_grid`` (``Full.evaluate_grid``: kernel once per speed, each
+  load warm-started from the previous one), speeds 1e-4..1 m/s x loads 10..150 N; the baseline
+  of every ratio;
+* ``single``: ``jr.rolling_resistance``, one point per call (front door, compiled), 100 N, 0.01 m/s;
+* ``points``: ``Full.evaluate_points`` on the table's points (one ``lax.scan``, warm starts
+  along it, a kernel per point);
+* ``vmap H x20``: ``jax.jit(jax.vmap(front door))`` over 20 thicknesses 5..50 mm (lockstep lanes)
+  and ``points H x20``: ``Full.evaluate_points`` with the layer batched;
+* ``map``: ``jr.resistance_map`` of the shipped measured Prony material
+  (``pyvisco_freq_user_raw.csv``: WLF, Prony fit) on a 10 mm layer, 10 N, R = 1 cm, 253..373 K x
+  1e-3..10 m/s, values with dR/dT and dR/dH (automatic grid), with its baseline: the table of the
+  same reduced speeds ``V a_T`` (one load) on the same grid, without derivatives; ``--vmap-map``
+  adds the map's program before batching (``jax.vmap`` of ``value_and_grad`` of the front door);
+* ``jr.sweep H x20``: the front door over the same 20 thicknesses through ``jr.sweep``, chunks
+  vectorised (default) and ``vectorize=False`` (points one after the other);
+* ``fit Jacobian``: ``jax.jacfwd`` of the table w.r.t. log(G0, tau, f) with the fit's default
+  model (``edge_smoothing = 0.5``), what ``jr.fit_material`` evaluates per Gauss-Newton step.
+
+Each program is compiled ahead of time (compile column), then the baseline and the entry are run
+alternately ``--repeat`` times in the same process (the machine is shared: both see the same
+load); medians. Prints the device, the load average and a markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without install
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+import jaxroll as jr  # noqa: E402
+from _timing import summary  # noqa: E402
+
+R = 0.02
+MAT = jr.StandardLinearSolid(3e6, 0.25, 1.0)
+
+
+def _compile(fn, *args):
+    t = time.perf_counter()
+    compiled = jax.jit(fn).lower(*args).compile()
+    return compiled, time.perf_counter() - t
+
+
+def _alternate(pairs, repeat):
+    """Median seconds of each ``(compiled, args)`` in ``pairs``, run alternately ``repeat`` times
+    after one warm-up each."""
+    for f, a in pairs:
+        jax.block_until_ready(f(*a))
+    runs = [[] for _ in pairs]
+    for _ in range(repeat):
+        for k, (f, a) in enumerate(pairs):
+            t = time.perf_counter()
+            jax.block_until_ready(f(*a))
+            runs[k].append(time.perf_counter() - t)
+    return [statistics.median(r) for r in runs]
+
+
+def reference_rows(args, rows):
+    cells, window = (5e-4, 29) if args.quick else (2.5e-4, 55)
+    method = jr.Full(grid=jr.FixedGrid(cells, window))
+    speeds = jnp.asarray(np.logspace(-4, 0, 6 if args.quick else 23))
+    loads = jnp.asarray(np.linspace(10.0, 150.0, 15))
+    n = speeds.size * loads.size
+
+    def table(G0, H, P, V):
+        return jr.rolling_resistance_grid(jr.StandardLinearSolid(G0, 0.25, 1.0), jr.Layer(H), radius=R, loads=P,
+                                          speeds=V, method=method).value
+
+    def single(G0, H, P, V):
+        return jr.rolling_resistance(jr.StandardLinearSolid(G0, 0.25, 1.0), jr.Layer(H), radius=R, load=P, speed=V,
+                                     method=method, throw=False).value
+
+    def points(G0, H, P, V):
+        return method.evaluate_points(jr.StandardLinearSolid(G0, 0.25, 1.0), jr.Layer(H), R, P, V, "sphere",
+                                      axes=(None, None, None, 0, 0)).value
+
+    Hs = jnp.asarray(np.linspace(0.005, 0.05, 20))
+
+    def vmap_H(Hs):
+        return jax.vmap(lambda H: single(3e6, H, 100.0, 0.01))(Hs)
+
+    def points_H(Hs):
+        return method.evaluate_points(MAT, jr.Layer(Hs), R, 100.0, 0.01, "sphere",
+                                      axes=(None, 0, None, None, None)).value
+
+    def sweep_H(Hs, vectorize):
+        return jr.sweep(lambda H: single(3e6, H, 100.0, 0.01), Hs, vectorize=vectorize)
+
+    fit_method = jr.Full(grid=method.grid, edge_smoothing=0.5)
+
+    def fit_jacobian(logp, P, V):
+        def values(lp):
+            G0, tau, f = jnp.exp(lp)
+            return jr.rolling_resistance_grid(jr.StandardLinearSolid(G0, tau, f), jr.Layer(0.03), radius=R, loads=P,
+                                              speeds=V, method=fit_method).value
+        return jax.jacfwd(values)(logp)
+
+    def fit_forward(logp, P, V):
+        G0, tau, f = jnp.exp(logp)
+        return jr.rolling_resistance_grid(jr.StandardLinearSolid(G0, tau, f), jr.Layer(0.03), radius=R, loads=P,
+                                          speeds=V, method=fit_method).value
+
+    VV, PP = (x.ravel() for x in jnp.meshgrid(speeds, loads, indexing="ij"))
+    base = (3e6, 0.03, loads, speeds)
+    t_c, c_table = _compile(table, *base)
+    s_c, c_single = _compile(single, 3e6, 0.03, 100.0, 0.01)
+    p_c, c_points = _compile(points, 3e6, 0.03, PP, VV)
+    v_c, c_vmap = _compile(vmap_H, Hs)
+    h_c, c_pH = _compile(points_H, Hs)
+    sv_c, c_sv = _compile(lambda Hs: sweep_H(Hs, True), Hs)
+    ss_c, c_ss = _compile(lambda Hs: sweep_H(Hs, False), Hs)
+    lp = jnp.log(jnp.asarray([3e6, 0.25, 1.0]))
+    j_c, c_jac = _compile(fit_jacobian, lp, loads, speeds)
+    f_c, c_fwd = _compile(fit_forward, lp, loads, speeds)
+    rep = args.repeat
+    t_table, t_single, t_points = _alternate([(t_c, base), (s_c, (3e6, 0.03, 100.0, 0.01)),
+                                              (p_c, (3e6, 0.03, PP, VV))], rep)
+    check = float(jnp.max(jnp.abs(p_c(3e6, 0.03, PP, VV) / t_c(*base).ravel() - 1)))
+    t_table2, t_vmap, t_pH = _alternate([(t_c, base), (v_c, (Hs,)), (h_c, (Hs,))], rep)
+    check_H = float(jnp.max(jnp.abs(h_c(Hs) / v_c(Hs) - 1)))
+    t_table4, t_sv, t_ss = _alternate([(t_c, base), (sv_c, (Hs,)), (ss_c, (Hs,))], rep)
+    t_table3, t_jac, t_fwd = _alternate([(t_c, base), (j_c, (lp, loads, speeds)), (f_c, (lp, loads, speeds))], rep)
+    per = lambda t, k: t / k  # noqa: E731
+    ref = statistics.median([per(t_table, n), per(t_table2, n), per(t_table3, n), per(t_table4, n)])
+    size = f"{speeds.size}x{loads.size}, cells {cells * 1e3:g} mm, window {window}"
+    rows += [
+        ("table (warm-started, baseline)", per(t_table, n), c_table, 1.0, f"{size}; {n} points"),
+        ("single point (front door)", per(t_single, 1), c_single, per(t_single, 1) / per(t_table, n),
+         "100 N, 0.01 m/s, cold start"),
+        ("points (Full.evaluate_points)", per(t_points, n), c_points, per(t_points, n) / per(t_table, n),
+         f"the table's {n} points, kernel per point; max |rel diff| to the table {check:.1e}"),
+        ("jit(vmap(front door)) H x20", per(t_vmap, 20), c_vmap, per(t_vmap, 20) / per(t_table2, n),
+         f"20 thicknesses 5..50 mm, 100 N, 0.01 m/s: {t_vmap:.3f} s"),
+        ("points, layer batched, H x20", per(t_pH, 20), c_pH, per(t_pH, 20) / per(t_table2, n),
+         f"the same 20 points: {t_pH:.3f} s; max |rel diff| to the vmap {check_H:.1e}"),
+        ("jr.sweep H x20 (vectorize=True, chunks of 16)", per(t_sv, 20), c_sv, per(t_sv, 20) / per(t_table4, n),
+         f"front door per point: {t_sv:.3f} s"),
+        ("jr.sweep H x20 (vectorize=False)", per(t_ss, 20), c_ss, per(t_ss, 20) / per(t_table4, n),
+         f"front door per point, one after the other: {t_ss:.3f} s"),
+        ("fit forward (the table, edge_smoothing 0.5)", per(t_fwd, n), c_fwd, per(t_fwd, n) / per(t_table3, n),
+         f"{t_fwd:.2f} s per table of {n} points"),
+        ("fit Jacobian (jacfwd of the table, 3 params)", per(t_jac, n), c_jac, per(t_jac, n) / per(t_table3, n),
+         f"edge_smoothing 0.5; {t_jac:.2f} s per Jacobian of {n} points ({t_jac / t_fwd:.1f}x its forward table)"),
+    ]
+    return ref
+
+
+def map_rows(args, rows):
+    sw = jr.read_dma_sweeps(jr.datasets.path("pyvisco_freq_user_raw.csv"))
+    sh = jr.fit_shift_factors(sw, T_ref=298.15)
+    wlf, pf = jr.fit_wlf(sh), jr.fit_prony(jr.master_curve(sw, sh))
+    k = 7 if args.quick else 25
+    Ts, Vs = np.linspace(253.15, 373.15, k), np.logspace(-3, 1, k)
+    layer, radius, load = jr.Layer(0.01), 0.01, 10.0
+
+    def run_map():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", jr.ValidityWarning)
+            return jr.resistance_map(pf.material, wlf.shift, layer, radius=radius, load=load, temperatures=Ts,
+                                     speeds=Vs, geometry="sphere")
+
+    t = time.perf_counter()
+    m = run_map()
+    first = time.perf_counter() - t
+    # the baseline: the table of the same reduced speeds (one load) on the map's grid
+    aT = np.exp(np.asarray(wlf.shift.log_shift(jnp.asarray(Ts))))
+    reduced = jnp.asarray(np.sort((aT[:, None] * Vs[None, :]).ravel()))
+    grid = jr.Full().resolve(jr.at_temperature(pf.material, wlf.shift, float(Ts.min())), layer, radius=radius,
+                             loads=[load], speeds=Vs, geometry="sphere").grid
+    grid = jr.grids.union([grid, jr.Full().resolve(jr.at_temperature(pf.material, wlf.shift, float(Ts.max())), layer,
+                                                   radius=radius, loads=[load], speeds=Vs, geometry="sphere").grid])
+    method = jr.Full(grid=grid)
+
+    def table(V):
+        return jr.rolling_resistance_grid(pf.material, layer, radius=radius, loads=jnp.asarray([load]), speeds=V,
+                                          method=method).value
+
+    c, comp = _compile(table, reduced)
+    jax.block_until_ready(c(reduced))
+    vmapped = _vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, method) if args.vmap_map else None
+    t_map, t_table, t_vmapped = [], [], []
+    for _ in range(args.repeat):
+        t = time.perf_counter()
+        jax.block_until_ready(c(reduced))
+        t_table.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        run_map()
+        t_map.append(time.perf_counter() - t)
+        if vmapped is not None:
+            t = time.perf_counter()
+            out = jax.block_until_ready(vmapped[0]())
+            t_vmapped.append(time.perf_counter() - t)
+    n = k * k
+    tm, tt = statistics.median(t_map), statistics.median(t_table)
+    if vmapped is not None:
+        tv = statistics.median(t_vmapped)
+        diff = [float(np.nanmax(np.abs(a / np.asarray(b) - 1))) for a, b in
+                zip((m.value, m.dR_dT, m.dR_dH), (out[0], out[2], out[3]))]
+        rows.append((f"map {k}x{k} as before: jit(vmap(vmap(value_and_grad(front door))))", tv / n, vmapped[1], tv / tt,
+                     f"{tv:.2f} s per run (the old resistance_map ran it twice per call); max rel. diff. to the new "
+                     f"map: value {diff[0]:.1e}, dR/dT {diff[1]:.1e}, dR/dH {diff[2]:.1e}"))
+    rows += [
+        ("table of the map's reduced speeds (baseline)", tt / n, comp, 1.0,
+         f"{n} speeds x 1 load, window {grid.window}"),
+        (f"resistance_map {k}x{k} (values, dR/dT, dR/dH)", tm / n, first - tm, tm / tt,
+         f"measured Prony ({pf.n_terms} terms) + WLF: {tm:.2f} s per map (call, incl. grid sizing); "
+         f"{m.valid.mean() * 100:.0f} % valid"),
+    ]
+
+
+def _vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, method):
+    """``(call, compile seconds)`` of the map program before batching: ``jax.value_and_grad`` of
+    the front door w.r.t. (T, H), vmapped over both axes (what ``resistance_map`` compiled)."""
+    def one(T, V, H):
+        r = jr.rolling_resistance(jr.at_temperature(pf.material, wlf.shift, T), jr.Layer(H), radius=radius, load=load,
+                                  speed=V, method=method, throw=False)
+        return r.value, r.result
+
+    def value_and_grads(T, V, H):
+        (v, code), g = jax.value_and_grad(one, argnums=(0, 2), has_aux=True)(T, V, H)
+        return v, code, g[0], g[1]
+
+    grid = jax.vmap(jax.vmap(value_and_grads, (None, 0, None)), (0, None, None))
+    args = (jnp.asarray(Ts), jnp.asarray(Vs), jnp.asarray(layer.H))
+    compiled, comp = _compile(grid, *args)
+    return (lambda: compiled(*args)), comp
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="coarse grid, 6x15 table, 7x7 map")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--only", choices=["reference", "map"], help="only the reference-case rows or the map rows")
+    ap.add_argument("--vmap-map", action="store_true",
+                    help="also time the map program before batching (vmapped value_and_grad of the front door)")
+    args = ap.parse_args()
+    dev = jax.devices()[0]
+    print(f"device: {dev.platform} {dev.device_kind} x {len(jax.devices())}; cpu count {os.cpu_count()}; "
+          f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
+    rows = []
+    if args.only in (None, "reference"):
+        reference_rows(args, rows)
+    if args.only in (None, "map"):
+        map_rows(args, rows)
+    print(f"load average {os.getloadavg()[0]:.1f} at the end; medians of {args.repeat}, alternating with the "
+          f"baseline\n")
+    print("| entry | per point | compile | ratio to the table | note |")
+    print("|---|---|---|---|---|")
+    for name, pp, comp, ratio, note in rows:
+        print(f"| {name} | {pp * 1e3:.2f} ms | {comp:.1f} s | {ratio:.2f}x | {note} |")
+        summary(f"bench_batched.py{' --quick' if args.quick else ''} ({name})", pp, comp, "warm-started table",
+                f"{ratio:.2f}x", note)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,134 @@
+"""Batched full models (``Full.evaluate_points``, and ``jr.resistance_map`` through it): points
+solved one after the other in a ``lax.scan``, each warm-started from the previous point, must
+give the numbers of the per-point eager front door to the solver tolerance, and implicit
+per-point derivatives that match central finite differences.
+
+Oracle: ``jr.rolling_resistance`` at each point alone (the solver's own start). The contact
+problem has one solution per point; a warm start changes only the iterations, so the values
+agree to the solver tolerance (``tol = 1e-10`` on the scaled residual, linear solves to
+``1e-13``): asserted 1e-10 relative.
+"""
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxroll as jr
+
+from _cases import PAPER, RADIUS, central_difference
+
+#: Coarse infinite-layer grids: sphere 0.5 mm cells, 29-cell window (~6-12 cells per contact
+#: radius at 20..150 N); cylinder 0.1 mm cells, 96-cell window (~10-30 cells per half-width).
+SPHERE = jr.Full(grid=jr.FixedGrid(5e-4, 29))
+CYLINDER = jr.Full(grid=jr.FixedGrid(1e-4, 96))
+CASES = {"sphere": (SPHERE, np.array([20.0, 150.0, 60.0, 100.0, 40.0, 150.0])),
+         "cylinder": (CYLINDER, np.array([2e3, 1e4, 5e3, 8e3, 3e3, 1e4]))}
+#: Points whose speed, load and layer thickness all vary, in an order with unlike neighbours
+#: (a speed jump of four decades, the load falling and rising).
+SPEEDS = np.array([1e-2, 1e-4, 1.0, 3e-2, 1e-3, 1e-2])
+THICKNESSES = np.array([0.005, 0.03, 0.01, 0.005, 0.02, 0.03])
+
+
+@functools.partial(jax.jit, static_argnames=("geometry", "sorted_by_speed"))
+def _points(material, H, P, V, *, geometry, sorted_by_speed):
+    method = CASES[geometry][0]
+    order = jnp.argsort(V) if sorted_by_speed else None
+    out = method.evaluate_points(material, jr.Layer(H), RADIUS, P, V, geometry,
+                                 axes=(None, 0, None, 0, 0), order=order)
+    return out.value, out.result, out.solution.iterations
+
+
+def _eager(material, H, P, V, geometry):
+    return jr.rolling_resistance(material, jr.Layer(H), radius=RADIUS, load=P, speed=V, geometry=geometry,
+                                 method=CASES[geometry][0], throw=False)
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
+@pytest.mark.parametrize("sorted_by_speed", [False, True], ids=["given-order", "sorted"])
+@pytest.mark.parametrize("geometry", ["sphere", "cylinder"])
+def test_points_equal_eager_single_points(geometry, sorted_by_speed):
+    loads = CASES[geometry][1]
+    value, result, _ = _points(PAPER, THICKNESSES, loads, SPEEDS, geometry=geometry,
+                                        sorted_by_speed=sorted_by_speed)
+    for i, (H, P, V) in enumerate(zip(THICKNESSES, loads, SPEEDS)):
+        one = _eager(PAPER, H, P, V, geometry)
+        assert abs(float(value[i]) / float(one.value) - 1) < 1e-10, (i, float(value[i]), float(one.value))
+        assert int(result[i]) == int(one.result), i
+
+
+@pytest.mark.parametrize("geometry", ["sphere", "cylinder"])
+def test_points_gradients_are_implicit_per_point(geometry):
+    """d(sum of values)/dG0 (shared) and /dH_i (per point) through the scan against central
+    differences of the eager front door (step 1e-5 relative: truncation ~1e-10, solver noise
+    ~1e-10/1e-5; the contact set does not change over the step), 1e-5 relative."""
+    loads = CASES[geometry][1][:3]
+    V, H = SPEEDS[:3], THICKNESSES[:3]
+
+    def total(G0, H):
+        mat = jr.StandardLinearSolid(G0, PAPER.tau, PAPER.f)
+        return jnp.sum(_points(mat, H, loads, V, geometry=geometry, sorted_by_speed=True)[0])
+
+    g_G, g_H = jax.grad(total, argnums=(0, 1))(jnp.asarray(PAPER.G0), jnp.asarray(H))
+
+    def eager_sum(p):
+        mat = jr.StandardLinearSolid(p["G0"], PAPER.tau, PAPER.f)
+        return sum(float(_eager(mat, h, P, v, geometry).value) for h, P, v in zip(H, loads, V))
+
+    fd = central_difference(eager_sum, {"G0": float(PAPER.G0)}, "G0")
+    np.testing.assert_allclose(float(g_G), fd, rtol=1e-5)
+    i = 1
+    fd_H = central_difference(lambda p: float(_eager(PAPER, p["H"], loads[i], V[i], geometry).value),
+                              {"H": float(H[i])}, "H")
+    np.testing.assert_allclose(float(g_H[i]), fd_H, rtol=1e-5)
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
+def test_map_of_the_full_model_equals_the_front_door():
+    """A 3 x 3 map of the full 2D model (points warm-started in the order of V a_T): each value is
+    the front door's at that temperature and speed (1e-10), dR/dT a central difference of it
+    (step 0.01 K: truncation ~1e-9 relative)."""
+    mat, wlf = PAPER.to_prony(), jr.WLF(8.86, 101.6, 293.15)
+    Ts, Vs = np.array([283.15, 293.15, 303.15]), np.array([1e-3, 1e-2, 1e-1])
+    m = jr.resistance_map(mat, wlf, jr.Layer(0.01), radius=0.01, load=500.0, temperatures=Ts, speeds=Vs,
+                          geometry="cylinder", method=jr.Full(grid=jr.FixedGrid(4e-5, 64)))
+
+    def rr(T, V):
+        return float(jr.rolling_resistance(jr.at_temperature(mat, wlf, T), jr.Layer(0.01), radius=0.01, load=500.0,
+                                           speed=V, geometry="cylinder", method=jr.Full(grid=jr.FixedGrid(4e-5, 64)),
+                                           throw=False).value)
+
+    for i, T in enumerate(Ts):
+        for j, V in enumerate(Vs):
+            assert abs(m.value[i, j] / rr(T, V) - 1) < 1e-10, (T, V)
+    fd = (rr(Ts[1] + 0.01, Vs[1]) - rr(Ts[1] - 0.01, Vs[1])) / 0.02
+    np.testing.assert_allclose(m.dR_dT[1, 1], fd, rtol=1e-5)
+
+
+def test_fit_central_difference_jacobian_runs_the_tables_one_after_the_other():
+    """The fit's central-difference Jacobian of a full model (its 2k + 1 warm-started tables in a
+    lax.map) against its forward-mode Jacobian (implicit per point): step 1e-4 in the
+    log-parameters, truncation ~1e-8 relative, solver noise ~tol/step = 1e-6; 1e-5 asserted."""
+    from jaxroll.identify.fit import RollingData, _data_arrays, _Params, _Problem, _residuals_and_jacobian_jit
+
+    method = jr.Full(grid=jr.FixedGrid(5e-4, 29), edge_smoothing=0.5)
+    V, P = (a.ravel() for a in np.meshgrid([1e-3, 1e-2, 1e-1], [60.0, 120.0]))
+    data = _data_arrays(RollingData(V, P, np.ones(V.size)), None, method)
+    model = (PAPER, jr.Layer(0.03), None)
+    params = _Params.of(model, ("G0", "tau", "f"), None)
+    logp = jnp.log(jnp.asarray([3.3e6, 0.2, 1.2]))
+    _, J_ad = _residuals_and_jacobian_jit(logp, model, data, _Problem(params, RADIUS, "sphere", method, None))
+    _, J_fd = _residuals_and_jacobian_jit(logp, model, data, _Problem(params, RADIUS, "sphere", method, 1e-4))
+    np.testing.assert_allclose(np.asarray(J_fd), np.asarray(J_ad), rtol=1e-5, atol=1e-5 * float(jnp.max(jnp.abs(J_ad))))
+
+
+def test_points_need_one_batch_length():
+    """axes other than 0/None, or batched arguments of different lengths, raise before tracing."""
+    with pytest.raises(ValueError, match="0 \\(batched\\) or None"):
+        SPHERE.evaluate_points(PAPER, jr.Layer(0.03), RADIUS, jnp.ones(3), jnp.ones(3), "sphere",
+                               axes=(None, None, None, 1, 0))
+    with pytest.raises(ValueError, match="one common leading length"):
+        SPHERE.evaluate_points(PAPER, jr.Layer(0.03), RADIUS, jnp.ones(3), jnp.ones(4), "sphere",
+                               axes=(None, None, None, 0, 0))
