@@ -128,9 +128,10 @@ def _default_point(g, tag, z, P, d):
 
     m = MATERIALS[tag]
     a = float(jr.engines.contact_size.estimate_contact_size(m, HALF, 0.02, P, g))
-    zeta = float(grids.regime_zeta(m, speed_of(g, z, P), a))
-    c = grids.sphere_cells_per_radius(zeta) if g == "sphere" else grids.cylinder_cells_per_radius(zeta)
-    return a, zeta, c, d.get(c)
+    zeta, breadth = (float(x) for x in grids.regime(m, speed_of(g, z, P), a))
+    rule = grids.sphere_cells_per_radius if g == "sphere" else grids.cylinder_cells_per_radius
+    c = rule(zeta, breadth)
+    return a, zeta, breadth, c, d.get(c)
 
 
 def analyse(path):
@@ -159,11 +160,12 @@ def analyse(path):
         label = f"{z:g}" if z > 0 else f"V={-z:g} m/s"
         cols = "  ".join(f"{c}: {100 * (d[c][0] / ref - 1):+.2f}/{100 * (d[c][1] / ref - 1):+.2f}"
                          f"{'*' if d[c][2] else ''}" for c in cs)
-        a, zeta, c, point = _default_point(g, tag, z, P, d)
+        a, zeta, breadth, c, point = _default_point(g, tag, z, P, d)
         dflt = "not in the study"
         if point is not None:
             M, D, _, solved = point
-            t = float(grids.full_model_error(M, D, zeta, c, g, solved / a))
+            ratio = solved / a if np.isfinite(solved) else 1.0  # the validation file has no contact radius
+            t = float(grids.full_model_error(M, D, zeta, c, g, ratio, breadth))
             dflt = f"{c} cells: {100 * (D / ref - 1):+.2f} (truncation {100 * t:.2f})"
         print(f"{g:8s} {tag:3s} P={P:g} {label:12s} zeta_regime={zeta:.3g} ({src}) {cols}\n    default {dflt}")
 
