@@ -136,7 +136,8 @@ def _default_point(g, tag, z, P, d):
 
 def analyse(path):
     """Errors [%] of M / D at every grid of the study, and at the default grid (the rule's cells)
-    the error of the reported D with its ``truncation``."""
+    the error of the reported value (D, blended toward (M + D)/2 below zeta = 5e-3) with its
+    ``truncation``."""
     from jaxroll import grids
 
     table = {}
@@ -166,7 +167,8 @@ def analyse(path):
             M, D, _, solved = point
             ratio = solved / a if np.isfinite(solved) else 1.0  # the validation file has no contact radius
             t = float(grids.full_model_error(M, D, zeta, c, g, ratio, breadth))
-            dflt = f"{c} cells: {100 * (D / ref - 1):+.2f} (truncation {100 * t:.2f})"
+            value = float(grids.full_model_value(M, D, zeta))
+            dflt = f"{c} cells: {100 * (value / ref - 1):+.2f} (truncation {100 * t:.2f})"
         print(f"{g:8s} {tag:3s} P={P:g} {label:12s} zeta_regime={zeta:.3g} ({src}) {cols}\n    default {dflt}")
 
 

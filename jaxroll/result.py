@@ -291,12 +291,13 @@ def merge_results(first, second) -> jax.Array:
 
 
 def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, result, penetration, pressure, grid,
-                      iterations, residual, error=None) -> RollingResult:
+                      iterations, residual, error=None, value=None) -> RollingResult:
     """The :class:`RollingResult` of a full contact model (2D cylinder, 3D sphere, slices),
     ``regime = 4``. With ``error`` (the full 2D/3D models: the estimate of
-    :func:`jaxroll.grids.full_model_error`), ``value`` is the dissipation form of R_r (it
-    converges faster and more regularly than the moment form, docs/validation.md sec. 3) and
-    ``truncation`` is ``error``; without (the slices), ``value`` is the pressure-moment form and
+    :func:`jaxroll.grids.full_model_error`) and ``value`` (of :func:`jaxroll.grids.full_model_value`:
+    the dissipation form of R_r, which converges faster and more regularly than the moment form,
+    blended toward their midpoint at very low zeta; docs/validation.md sec. 3), ``truncation``
+    is ``error``; without (the slices), ``value`` is the pressure-moment form and
     ``truncation`` its relative difference to the dissipation form (an indicator). The other
     form stays in ``solution`` (``resistance_dissipation``, ``resistance_moment``)."""
     H = jnp.asarray(H, float)
@@ -307,7 +308,7 @@ def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, 
         scale = jnp.maximum(jnp.abs(resistance), 1e-300)
         trunc = jax.lax.stop_gradient(jnp.abs(resistance - resistance_dissipation) / scale)
     else:
-        value, trunc = resistance_dissipation, error
+        value, trunc = (resistance_dissipation if value is None else value), error
     return RollingResult(value=value, contact_radius=contact_radius, gamma=gamma,
                          regime=jnp.asarray(int(REGIMES.full)), truncation=trunc, result=result,
                          solution=GridSolution(penetration=penetration, pressure=pressure, grid=grid,
