@@ -42,9 +42,10 @@ The sizing rules (one home for each):
   ``80 a0`` 0.0 %), capped at 2^21 cells.
 
 The full models report :func:`full_model_value` (the dissipation form, blended toward the
-midpoint of both forms at zeta < 5e-3) and as ``truncation`` :func:`full_model_error`: twice the measured envelope at the
-grid's cells and the point's regime, and at least the moment-dissipation gap where the envelope
-does not bound the error (docs/validation.md sec. 3).
+midpoint of both forms at zeta < 5e-3) with ``truncation`` = :func:`full_model_error`: twice
+the measured envelope at the grid's cells and the point's regime, and at least the share of the
+moment-dissipation gap the value may be off where the envelope does not bound the error
+(docs/validation.md sec. 3).
 """
 
 from __future__ import annotations
@@ -607,7 +608,7 @@ def full_model_value(moment, dissipation, zeta) -> jax.Array:
     """The reported R_r of a full model: the dissipation form, moved toward the midpoint of the
     two forms below :data:`BLEND_ZETA` (weight 1 at zeta <= 1e-3): ``D + w (M - D)/2``. Smooth
     in every input. Jittable."""
-    return dissipation + 0.5 * _blend_weight(jax.lax.stop_gradient(zeta)) * (moment - dissipation)
+    return dissipation + 0.5 * _blend_weight(zeta) * (moment - dissipation)
 
 
 #: Smallest ratio of the solved to the estimated (relaxed) contact size in the tables'
@@ -617,13 +618,14 @@ CALIBRATED_CONTACT_RATIO = 0.48
 
 def full_model_error(moment, dissipation, zeta, cells, geometry, contact_ratio=1.0, breadth=0.0) -> jax.Array:
     """The error estimate (``RollingResult.truncation``, relative) of a full model's reported
-    value (:func:`full_model_value`; the dissipation form ``dissipation`` from zeta = 5e-3 up): :data:`ERROR_SAFETY` times :func:`dissipation_error` at the
-    regime ``(zeta, breadth)`` and the grid's ``cells`` per estimated contact radius, and where the table
-    does not bound it at least the gap ``|moment - dissipation|/dissipation``: in the bracketing
-    regime ``zeta <`` :data:`BRACKETING_ZETA` (the moment form low, the dissipation form high;
-    there the share of the gap left by the blend of :func:`full_model_value`),
-    on grids coarser than the table's, and where the solved contact is smaller than the
-    estimate by more than the calibration saw (``contact_ratio`` = solved/estimated size below
+    value (:func:`full_model_value`; the dissipation form ``dissipation`` from zeta = 5e-3 up):
+    :data:`ERROR_SAFETY` times :func:`dissipation_error` at the regime ``(zeta, breadth)`` and
+    the grid's ``cells`` per estimated contact radius, and where the table does not bound it at
+    least the gap ``|moment - dissipation|/dissipation``: in the bracketing regime
+    ``zeta <`` :data:`BRACKETING_ZETA` (the moment form low, the dissipation form high; there the
+    share of the gap left by the blend of :func:`full_model_value`), on grids coarser than the
+    table's, and where the solved contact is smaller than the estimate by more than the
+    calibration saw (``contact_ratio`` = solved/estimated size below
     :data:`CALIBRATED_CONTACT_RATIO`: a material much stiffer at the rolling frequency than
     relaxed; the table is then read at the cells scaled by the shortfall). No gradient (an error
     estimate, not a model value)."""
