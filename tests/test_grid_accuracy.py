@@ -165,3 +165,24 @@ def test_full_flags_an_estimated_error_above_its_threshold():
     assert float(res.truncation) > jr.Full.max_truncation
     assert int(res.result) == jr.RESULTS.truncation_too_large
     assert math.isfinite(float(res.value))
+
+
+def test_blended_value_is_differentiable_in_the_blend_band():
+    # zeta = 2e-3 lies inside the blend toward the midpoint of the two forms: d R_r / d tau (which
+    # moves zeta, hence the weight) against central differences on the same resolved grid;
+    # tolerance: step 1e-5 relative (truncation ~1e-10, solver noise tol/h ~1e-5)
+    import jax
+
+    a0 = float(jr.reference.hertz_cylinder(1e4, R, 3e6))
+    V = 2e-3 * a0 / 0.25
+    method = jr.Full().resolve(sls(1.0), HALF, radius=R, loads=1e4, speeds=V, geometry="cylinder")
+
+    def rr(tau):
+        mat = jr.StandardLinearSolid(G0=3e6, tau=tau, f=1.0)
+        return jr.rolling_resistance(mat, HALF, radius=R, load=1e4, speed=V, geometry="cylinder", method=method).value
+
+    g = float(jax.jit(jax.grad(rr))(0.25))
+    f = jax.jit(rr)
+    h = 0.25 * 1e-5
+    fd = (float(f(0.25 + h)) - float(f(0.25 - h))) / (2 * h)
+    assert g == pytest.approx(fd, rel=1e-4), (g, fd)
