@@ -18,21 +18,34 @@ than guessing.
 The sizing rules (one home for each):
 
 * **sphere** (full 3D model): cell ``a = r/c`` with ``r`` the stationary contact radius
-  (:func:`jaxroll.engines.contact_size.estimate_contact_size`) and ``c = 12`` cells per radius, at least
-  ``2 r/H`` on thin layers (the compliance kernel is only ~H wide); window
-  ``2 ceil(1.25 r_max/a) + 1`` cells. Default: an infinite layer (``period=None``, the
-  aperiodic kernel of :mod:`jaxroll.engines.aperiodic`). With ``period="auto"``: ``Lx >= 20 max(r,
-  V t_max)``, ``Ly >= 20 r`` in powers of two of cells (``t_max`` the material's longest
-  retardation time), ``Lx`` capped at 2^16 cells; Fourier cut-off ``n_terms`` = the larger
-  cell count.
-* **line** (full 2D cylinder and the slices of PD/PP/SP): cell ``a/c`` with ``a`` the
-  estimated half-width and ``c`` by the speed (measured against the exact half-space cylinder,
-  <= 0.5 % error of the moment form, :func:`line_cells_per_radius`): 25 cells for
-  ``0.03 <= V tau/a0 <= 30``, 128 down to 3e-3, 192 below, 50 up to 300, 100 above, and at
+  (:func:`jaxroll.engines.contact_size.estimate_contact_size`) and ``c`` cells per radius by the
+  regime of every point (:func:`regime`: zeta = V tau/a for a standard linear solid, from the
+  loss compliance for any material, and the breadth of the loss), :func:`sphere_cells_per_radius`:
+  the fewest cells whose measured error envelope (:data:`SPHERE_ERROR`) is <= 0.5 % -- 12 at
+  zeta >= 0.3, 16 at 0.1-0.3 or for a broad spectrum near the peak, 24 at 0.03-0.1, 32 at
+  0.01-0.03, 48 below (the cap: up to 1.3 % there, measured). At least ``2 r/H`` on thin layers (the
+  compliance kernel is only ~H wide); window ``2 ceil(1.25 r_max/a) + 1`` cells.
+  :class:`~jaxroll.DirectElastic` (a static pressure) keeps ``c = 12``. Default: an infinite
+  layer (``period=None``, the aperiodic kernel of :mod:`jaxroll.engines.aperiodic`). With
+  ``period="auto"``: ``Lx >= 20 max(r, V t_max)``, ``Ly >= 20 r`` in powers of two of cells
+  (``t_max`` the material's longest retardation time), ``Lx`` capped at 2^16 cells; Fourier
+  cut-off ``n_terms`` = the larger cell count.
+* **line**: cell ``a/c`` with ``a`` the estimated half-width. The full 2D cylinder (it reports
+  the dissipation form): ``c`` by the regime, :func:`cylinder_cells_per_radius` (12 at zeta >=
+  0.1, 25 at 0.01-0.1 or for a broad spectrum near the peak, 100-200 below; the envelope
+  :data:`LINE_ERROR` against the exact half-space cylinder <= 0.5 %). The slices of PD/PP/SP
+  (the moment form): ``c`` by the speed, :func:`line_cells_per_radius` (25 cells for
+  ``0.03 <= V tau/a0 <= 30``, 128 down to 3e-3, 192 below, 50 up to 300, 100 above). Both: at
   least ``2 a/H``; window ``2 ceil(3 a_max/dx)`` cells. Default: an infinite layer. With
   ``period="auto"``: ``L >= 20 max(4 a, V t_max)`` (the elastic log-kernel interaction of
   periodic images tilts the pressure: at ``V tau = a0``, ``L = 20 a0`` gives -0.76 % in R_r,
   ``80 a0`` 0.0 %), capped at 2^21 cells.
+
+The full models report :func:`full_model_value` (the dissipation form, blended toward the
+midpoint of both forms at zeta < 5e-3) with ``truncation`` = :func:`full_model_error`: twice
+the measured envelope at the grid's cells and the point's regime, and at least the share of the
+moment-dissipation gap the value may be off where the envelope does not bound the error
+(docs/validation.md sec. 3).
 """
 
 from __future__ import annotations
@@ -321,7 +334,8 @@ class AutoGrid(eqx.Module):
 
     Args:
         cells_per_radius: cells per estimated contact radius (sphere) or half-width
-            (cylinder, slices); ``None``: the model's rule (sphere 12; line 25..128 by speed).
+            (cylinder, slices); ``None``: the model's rule (full models: by the regime, 12..48
+            cells for spheres, 12..200 for cylinders; slices 25..192 by speed).
         window_radii: half-width of the pressure window in estimated contact radii (``None``:
             1.25 for spheres, 3 for lines).
         period: ``None`` (default: an infinite layer, the aperiodic influence coefficients of
@@ -356,15 +370,19 @@ class AutoGrid(eqx.Module):
 
     # ---- the rules ------------------------------------------------------------------------------
 
-    def sphere(self, material, layer, radius, loads, speeds) -> FixedGrid:
+    def sphere(self, material, layer, radius, loads, speeds, *, model="full") -> FixedGrid:
         """The :class:`FixedGrid` of the full 3D model covering every load and speed given
-        (concrete arrays)."""
+        (concrete arrays). ``model="full"``: cells per radius by the regime of every point,
+        :func:`sphere_cells_per_radius`; ``"static"`` (the static pressure of
+        :class:`~jaxroll.DirectElastic`): :data:`SPHERE_CELLS_PER_RADIUS`."""
         loads, speeds = _envelope(loads, speeds)
         r = _sizes(material, layer, radius, loads, "sphere")
         H = float(np.asarray(layer.H))
         cpr = self.cells_per_radius
         if cpr is None:
             cpr = SPHERE_CELLS_PER_RADIUS
+            if model == "full":
+                cpr = max(sphere_cells_per_radius(z, b) for z, b in _regimes(material, speeds, r))
             if math.isfinite(H):
                 cpr = max(cpr, _cells(2.0 * r.max() / H))
         dx = float(r.min()) / cpr
@@ -377,10 +395,12 @@ class AutoGrid(eqx.Module):
             period = (Nx * dx, Ny * dx)
         return FixedGrid(dx, window, period=period, n_terms=self.n_terms)
 
-    def line(self, material, layer, radius, loads, speeds) -> FixedGrid:
-        """The :class:`FixedGrid` of a plane-strain line (the full 2D cylinder; the slices of
-        PD/PP/SP with their middle-slice loads per unit length) covering every load per unit
-        length and speed given (concrete arrays)."""
+    def line(self, material, layer, radius, loads, speeds, *, model="slices") -> FixedGrid:
+        """The :class:`FixedGrid` of a plane-strain line covering every load per unit length
+        and speed given (concrete arrays): ``model="full"``, the full 2D cylinder (it reports the
+        dissipation form; cells by the regime of every point, :func:`cylinder_cells_per_radius`);
+        ``"slices"``, the slices of PD/PP/SP with their middle-slice loads per unit length (they
+        report the moment form; :func:`line_cells_per_radius`)."""
         loads, speeds = _envelope(loads, speeds)
         a = _sizes(material, layer, radius, loads, "cylinder")
         G0 = float(np.asarray(material.relaxed_modulus()))
@@ -388,11 +408,13 @@ class AutoGrid(eqx.Module):
         H = float(np.asarray(layer.H))
         t_max = _longest_time(material)
         cpr = self.cells_per_radius
-        if cpr is None:
+        if cpr is None and model == "full":
+            cpr = max(cylinder_cells_per_radius(z, b) for z, b in _regimes(material, speeds, a))
+        elif cpr is None:
             zeta = np.outer(speeds * t_max, 1.0 / a0)  # V tau / a0 over the envelope
             cpr = max(line_cells_per_radius(float(z)) for z in np.ravel(zeta))
-            if math.isfinite(H):
-                cpr = max(cpr, _cells(2.0 * a.max() / H))
+        if self.cells_per_radius is None and math.isfinite(H):
+            cpr = max(cpr, _cells(2.0 * a.max() / H))
         dx = float(a.min()) / cpr
         window = 2 * _cells((self.window_radii or LINE_WINDOW_RADII) * a.max() / dx)
         period = self.period
@@ -417,6 +439,244 @@ def line_cells_per_radius(zeta: float) -> int:
     if zeta <= 300.0:
         return 50
     return 100
+
+
+#: Regime nodes of the error tables: log10 of the regime zeta (:func:`regime_zeta`).
+ERROR_LOG_ZETA = (-3.0, -2.5, -2.0, -1.5, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 3.0)
+
+#: Cells per estimated contact radius of the columns of :data:`SPHERE_ERROR`.
+SPHERE_ERROR_CELLS = (12, 16, 20, 24, 32, 48, 64)
+
+#: Relative error [%] of the dissipation form of the full 3D model (infinite layer) by regime
+#: (rows, :data:`ERROR_LOG_ZETA`) and cells per radius (columns): the envelope of the errors
+#: measured by ``benchmarks/resistance_forms.py`` (sphere R = 2 cm, 100 and 30 N, half-space;
+#: standard linear solids G0 = 3 MPa, tau = 0.25 s, f = 0.5, 1, 2, 3 at zeta = 2e-3..1e3, and
+#: two Prony series of 20 and 12 decades at 1e-6..1e3 m/s, whose regime zeta is 1.0-1.2), each
+#: against its value extrapolated to zero cell size from 20..64 cells (a fit ``D + C c^-p``);
+#: the Prony series' own envelope is :data:`SPHERE_BROAD_ERROR`. At zeta <= 3e-3 the
+#: convergence is first order or slower, so the extrapolation there is uncertain (the
+#: truncation also takes the moment-dissipation gap, which brackets it).
+SPHERE_ERROR = (
+    (2.41, 2.00, 1.62, 1.72, 1.31, 1.14, 0.93),
+    (3.25, 2.79, 2.34, 2.37, 1.86, 1.58, 1.35),
+    (1.63, 0.87, 0.51, 0.54, 0.25, 0.23, 0.20),
+    (0.70, 0.60, 0.56, 0.43, 0.43, 0.32, 0.27),
+    (0.69, 0.40, 0.32, 0.21, 0.16, 0.07, 0.05),
+    (0.36, 0.24, 0.16, 0.11, 0.06, 0.03, 0.02),
+    (0.45, 0.24, 0.18, 0.15, 0.11, 0.08, 0.07),
+    (0.45, 0.24, 0.18, 0.15, 0.11, 0.08, 0.07),
+    (0.14, 0.10, 0.08, 0.04, 0.02, 0.01, 0.01),
+    (0.39, 0.25, 0.18, 0.18, 0.14, 0.12, 0.10),
+    (0.39, 0.25, 0.18, 0.18, 0.14, 0.12, 0.10),
+)
+
+#: Cells per estimated half-width of the columns of :data:`LINE_ERROR`.
+LINE_ERROR_CELLS = (12, 25, 50, 100, 200, 400)
+
+#: Relative error [%] of the dissipation form of the full 2D cylinder (infinite layer) by regime
+#: and cells per half-width, measured by ``benchmarks/resistance_forms.py`` (R = 2 cm,
+#: 10 kN/m, half-space): the standard linear solids (f = 0.5, 1, 2, 3) against the exact
+#: solution (the Prony series of :data:`SPHERE_ERROR` against 400-800 cells are
+#: :data:`LINE_BROAD_ERROR`); rounded up, at least 0.01 %. On a half-space the error depends on
+#: zeta, f and the cells only (the problem is self-similar in the load): f = 2 errs most near
+#: the peak (-0.28 % at zeta = 0.5, 12 cells, against -0.11 % for f = 1 at 0.3).
+LINE_ERROR = (
+    (17.1, 7.5, 3.0, 1.0, 0.20, 0.02),
+    (10.3, 3.6, 0.94, 0.10, 0.02, 0.01),
+    (3.3, 0.34, 0.12, 0.04, 0.02, 0.01),
+    (0.84, 0.30, 0.05, 0.03, 0.01, 0.01),
+    (0.44, 0.23, 0.05, 0.03, 0.01, 0.01),
+    (0.28, 0.09, 0.02, 0.01, 0.01, 0.01),
+    (0.28, 0.04, 0.02, 0.01, 0.01, 0.01),
+    (0.28, 0.04, 0.02, 0.01, 0.01, 0.01),
+    (0.02, 0.02, 0.01, 0.01, 0.01, 0.01),
+    (0.07, 0.02, 0.01, 0.01, 0.01, 0.01),
+    (0.07, 0.01, 0.01, 0.01, 0.01, 0.01),
+)
+
+#: Regimes (zeta) where a broad spectrum's own envelope applies (:func:`dissipation_error`).
+BROAD_ZETA = (0.3, 3.2)
+
+#: Relative error [%] of the 3D dissipation form for a broad spectrum near the peak, by the
+#: columns of :data:`SPHERE_ERROR`: the envelope of the two Prony series (20 and 12 decades,
+#: regime zeta 1.0-1.2, breadth >= 0.8) at 1e-6..1e3 m/s, which err 2-3x more than the standard
+#: linear solids there (the table's rows 1 and 3.16).
+SPHERE_BROAD_ERROR = (1.14, 0.47, 0.37, 0.34, 0.28, 0.23, 0.20)
+
+#: As :data:`SPHERE_BROAD_ERROR` for the 2D cylinder (columns of :data:`LINE_ERROR`).
+LINE_BROAD_ERROR = (1.22, 0.28, 0.05, 0.02, 0.02, 0.01)
+
+#: Factor from the tables' measured envelope to the reported bound ``truncation``: points off the
+#: tables' calibration (other f, zeta between rows, other spectra) erred up to 2x the envelope
+#: before it took them in (docs/validation.md sec. 3).
+ERROR_SAFETY = 2.0
+
+#: Target relative error of the dissipation form that the automatic full-model grids are sized for.
+TARGET_ERROR = 5e-3
+
+#: Largest cells per radius the sphere rule asks for (the cost grows like its fourth power or
+#: faster; at zeta <= 3e-3 even 64 cells leave ~1 %).
+MAX_SPHERE_RULE_CELLS = 48
+
+#: Below this regime zeta the truncation takes at least the moment-dissipation gap: there the
+#: moment form is low and the dissipation form high (measured at every resolution, 2D and 3D,
+#: zeta <= 3e-3), so the truth lies between them and the gap bounds the dissipation form's
+#: error, where the table's 3D rows converge too slowly to be extrapolated reliably.
+BRACKETING_ZETA = 5e-3
+
+
+def regime(material, speed, size) -> tuple:
+    """The regime of a rolling contact: ``(zeta, breadth)`` [-] at ``speed`` [m/s] with the
+    estimated contact radius or half-width ``size`` [m], from the loss compliance
+    ``J''(omega) = G''/|G*|^2`` at the contact frequency ``omega = V/a`` (central differences in
+    ``ln omega``, step 0.05):
+
+    * ``zeta = sqrt((1 - s)/(1 + s))`` with the slope ``s = d ln J''/d ln omega``: exactly
+      ``V tau/a`` for the standard linear solid (its ``J''`` is a Debye peak at
+      ``omega tau = 1``, ``s = (1 - (omega tau)^2)/(1 + (omega tau)^2)``). A broad Prony
+      spectrum (a flat loss) sits near 1; a loss dominated by fast terms (rising ``J''``) is
+      low-zeta, where the contact edge carries the dissipation.
+    * ``breadth = 1 - b/(1 - s^2)`` with the curvature ``b = -d^2 ln J''/d(ln omega)^2``,
+      clipped to [0, 1]: 0 for a single Debye peak (where ``b = 1 - s^2``), ~1 for a loss
+      spread over decades (a Prony series of many terms).
+
+    ``zeta`` is clipped to [1e-6, 1e6]; ``(1, 0)`` where there is no loss (elastic, ``V = 0``).
+    Jittable."""
+    h = 0.05
+    w = jnp.asarray(speed, float) / jnp.asarray(size, float)
+    G = jnp.stack([material.complex_modulus(w * math.exp(k * h)) for k in (-1, 0, 1)])
+    loss = jnp.imag(G) / jnp.abs(G) ** 2
+    ok = jnp.all(loss > 0, axis=0) & (w > 0)
+    L = jnp.log(jnp.where(ok, loss, 1.0))
+    s = jnp.clip((L[2] - L[0]) / (2 * h), -1.0 + 1e-12, 1.0 - 1e-12)
+    b = -(L[2] - 2 * L[1] + L[0]) / h**2
+    zeta = jnp.where(ok, jnp.clip(jnp.sqrt((1.0 - s) / (1.0 + s)), 1e-6, 1e6), 1.0)
+    breadth = jnp.where(ok, jnp.clip(1.0 - b / (1.0 - s * s), 0.0, 1.0), 0.0)
+    return zeta, breadth
+
+
+def regime_zeta(material, speed, size) -> jax.Array:
+    """The regime zeta of :func:`regime` (``V tau/a`` for the standard linear solid). Jittable."""
+    return regime(material, speed, size)[0]
+
+
+def dissipation_error(zeta, cells, geometry, breadth=0.0) -> jax.Array:
+    """The measured error envelope [-, relative] of the dissipation form of the full model of
+    ``geometry`` at regime ``zeta`` (:func:`regime_zeta`) with ``cells`` cells per estimated
+    contact radius or half-width: :data:`SPHERE_ERROR` / :data:`LINE_ERROR`, the larger of the
+    two rows around ``zeta`` (the error is not monotone between them), interpolated linearly in
+    ``(log cells, log error)``; beyond the table's cells, second order below and first order
+    above (conservative: measured 1.5-3 at zeta >= 0.01). A broad spectrum (``breadth`` of
+    :func:`regime`) near the peak (:data:`BROAD_ZETA`) errs more than a single Debye peak: there
+    the larger of the table and ``breadth`` times :data:`SPHERE_BROAD_ERROR` /
+    :data:`LINE_BROAD_ERROR`. Jittable."""
+    table, cols = (SPHERE_ERROR, SPHERE_ERROR_CELLS) if geometry == "sphere" else (LINE_ERROR, LINE_ERROR_CELLS)
+    broad = jnp.log(jnp.asarray(SPHERE_BROAD_ERROR if geometry == "sphere" else LINE_BROAD_ERROR)) - jnp.log(100.0)
+    logt = jnp.log(jnp.asarray(table)) - jnp.log(100.0)
+    logcols = jnp.log(jnp.asarray(cols, float))
+    nodes = np.asarray(ERROR_LOG_ZETA)
+
+    def one(z, c, w):
+        logz = jnp.clip(jnp.log10(z), nodes[0], nodes[-1])
+        i = jnp.clip(jnp.searchsorted(jnp.asarray(nodes), logz, side="right") - 1, 0, len(nodes) - 2)
+        near_peak = (z >= BROAD_ZETA[0]) & (z <= BROAD_ZETA[1])
+        column = jnp.maximum(jnp.maximum(logt[i], logt[i + 1]),
+                             jnp.where(near_peak & (w > 0), broad + jnp.log(jnp.maximum(w, 1e-300)), -jnp.inf))
+        logc = jnp.log(c)
+        inside = jnp.interp(logc, logcols, column)
+        below = column[0] + 2.0 * (logcols[0] - logc)
+        above = column[-1] + (logcols[-1] - logc)
+        return jnp.exp(jnp.where(logc < logcols[0], below, jnp.where(logc > logcols[-1], above, inside)))
+
+    return jnp.vectorize(one)(jnp.asarray(zeta, float), jnp.asarray(cells, float), jnp.asarray(breadth, float))
+
+
+#: Regimes (zeta) over which the reported value moves from the dissipation form D (above) to
+#: the midpoint of the moment form M and D (below), smoothly in log zeta: where M is low and D
+#: high (:data:`BRACKETING_ZETA`) and both converge at first order or slower, the midpoint's
+#: error is at most half their gap (2D, exact solution: at zeta = 1e-3 and 100 cells M -1.12 %,
+#: D +0.97 %, midpoint -0.08 %; at V tau/a0 < 1e-4 and 192 cells M -1.1 %, D +2.8 %).
+BLEND_ZETA = (1e-3, 5e-3)
+
+
+def _blend_weight(zeta):
+    lo, hi = math.log10(BLEND_ZETA[0]), math.log10(BLEND_ZETA[1])
+    return jnp.clip((hi - jnp.log10(jnp.asarray(zeta, float))) / (hi - lo), 0.0, 1.0)
+
+
+def full_model_value(moment, dissipation, zeta) -> jax.Array:
+    """The reported R_r of a full model: the dissipation form, moved toward the midpoint of the
+    two forms below :data:`BLEND_ZETA` (weight 1 at zeta <= 1e-3): ``D + w (M - D)/2``. Smooth
+    in every input. Jittable."""
+    return dissipation + 0.5 * _blend_weight(zeta) * (moment - dissipation)
+
+
+#: Smallest ratio of the solved to the estimated (relaxed) contact size in the tables'
+#: calibration (the Prony series at 1e3 m/s: 2.4 mm against 5.0 mm; SLS f = 3 at high speed: 0.63).
+CALIBRATED_CONTACT_RATIO = 0.48
+
+
+def full_model_error(moment, dissipation, zeta, cells, geometry, contact_ratio=1.0, breadth=0.0) -> jax.Array:
+    """The error estimate (``RollingResult.truncation``, relative) of a full model's reported
+    value (:func:`full_model_value`; the dissipation form ``dissipation`` from zeta = 5e-3 up):
+    :data:`ERROR_SAFETY` times :func:`dissipation_error` at the regime ``(zeta, breadth)`` and
+    the grid's ``cells`` per estimated contact radius, and where the table does not bound it at
+    least the gap ``|moment - dissipation|/dissipation``: in the bracketing regime
+    ``zeta <`` :data:`BRACKETING_ZETA` (the moment form low, the dissipation form high; there the
+    share of the gap left by the blend of :func:`full_model_value`), on grids coarser than the
+    table's, and where the solved contact is smaller than the estimate by more than the
+    calibration saw (``contact_ratio`` = solved/estimated size below
+    :data:`CALIBRATED_CONTACT_RATIO`: a material much stiffer at the rolling frequency than
+    relaxed; the table is then read at the cells scaled by the shortfall). No gradient (an error
+    estimate, not a model value)."""
+    cols = SPHERE_ERROR_CELLS if geometry == "sphere" else LINE_ERROR_CELLS
+    gap = jnp.abs(moment - dissipation) / jnp.maximum(jnp.abs(dissipation), 1e-300)
+    shortfall = jnp.minimum(1.0, contact_ratio / CALIBRATED_CONTACT_RATIO)
+    cells = cells * shortfall
+    bracketing = zeta < BRACKETING_ZETA
+    use_gap = bracketing | (cells < cols[0]) | (shortfall < 1.0)
+    # with the truth between M and D, the value D + w (M - D)/2 is within (1 - w/2) of their gap
+    gap_share = jnp.where(bracketing, 1.0 - 0.5 * _blend_weight(zeta), 1.0)
+    table = dissipation_error(zeta, cells, geometry, breadth)
+    est = jnp.maximum(ERROR_SAFETY * table, jnp.where(use_gap, gap_share * gap, 0.0))
+    return jax.lax.stop_gradient(est)
+
+
+def _rule_cells(zeta, breadth, geometry, ladder, cap):
+    err = np.asarray(dissipation_error(np.full(len(ladder), zeta), np.asarray(ladder, float), geometry, breadth))
+    fit = [c for c, e in zip(ladder, err) if e <= TARGET_ERROR and c <= cap]
+    return fit[0] if fit else cap
+
+
+def sphere_cells_per_radius(zeta: float, breadth: float = 0.0) -> int:
+    """Cells per estimated contact radius of the full 3D model at regime ``(zeta, breadth)``
+    (:func:`regime`): the fewest of 12, 16, 20, 24, 32, 48 whose :func:`dissipation_error` is
+    <= :data:`TARGET_ERROR` (0.5 %), 48 where none is (zeta < 0.01). Standard linear solid:
+    12 at zeta >= 0.3, 16 at 0.1-0.3, 24 at 0.03-0.1, 32 at 0.01-0.03; a broad Prony spectrum
+    near the peak: 16."""
+    return _rule_cells(zeta, breadth, "sphere", SPHERE_ERROR_CELLS, MAX_SPHERE_RULE_CELLS)
+
+
+def cylinder_cells_per_radius(zeta: float, breadth: float = 0.0) -> int:
+    """Cells per estimated half-width of the full 2D cylinder at regime ``(zeta, breadth)``: the
+    fewest of 12, 25, 50, 100, 200, 400 whose :func:`dissipation_error` is <= :data:`TARGET_ERROR`
+    (0.5 %)."""
+    return _rule_cells(zeta, breadth, "cylinder", LINE_ERROR_CELLS, LINE_ERROR_CELLS[-1])
+
+
+@eqx.filter_jit
+def _regime_table(material, speeds, sizes):
+    return jax.vmap(lambda V: jax.vmap(lambda a: jnp.stack(regime(material, V, a)))(sizes))(speeds)
+
+
+def _regimes(material, speeds, sizes):
+    """``(zeta, breadth)`` of every (speed, size) pair with ``V > 0`` (host floats; ``[(1, 0)]``
+    if none)."""
+    moving = speeds[speeds > 0]
+    if moving.size == 0:
+        return [(1.0, 0.0)]
+    table = np.asarray(_regime_table(material, jnp.asarray(moving), jnp.asarray(sizes))).reshape(-1, 2)
+    return [(float(z), float(b)) for z, b in table]
 
 
 def _cells(x: float) -> int:

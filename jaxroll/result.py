@@ -165,8 +165,9 @@ class GridSolution(eqx.Module):
         iterations: active-set iterations (None where not iterated).
         residual: final solver residual (None where not iterated).
         resistance_dissipation: ``R_r`` from the dissipated power, ``-int p du/dx`` [N or N/m]
-            (the full models and slices; ``RollingResult.value`` is the pressure-moment form and
-            ``truncation`` their relative difference).
+            (the full models and slices; the value reported by the full 2D/3D models).
+        resistance_moment: ``R_r`` from the pressure moment, ``(1/R) int p x dA`` [N or N/m]
+            (the value reported by the slices). The two forms are equal in the continuum.
     """
 
     penetration: jax.Array
@@ -175,6 +176,7 @@ class GridSolution(eqx.Module):
     iterations: jax.Array | None = None
     residual: jax.Array | None = None
     resistance_dissipation: jax.Array | None = None
+    resistance_moment: jax.Array | None = None
 
 
 class RollingResult(eqx.Module):
@@ -289,17 +291,27 @@ def merge_results(first, second) -> jax.Array:
 
 
 def full_model_result(resistance, resistance_dissipation, contact_radius, H, *, result, penetration, pressure, grid,
-                      iterations, residual) -> RollingResult:
-    """The :class:`RollingResult` of a full contact model (2D cylinder, 3D sphere, slices):
-    ``value`` is the pressure-moment form of R_r, ``truncation`` its relative difference to the
-    dissipation form (a discretisation-error indicator), ``regime = 4``."""
+                      iterations, residual, error=None, value=None) -> RollingResult:
+    """The :class:`RollingResult` of a full contact model (2D cylinder, 3D sphere, slices),
+    ``regime = 4``. With ``error`` (the full 2D/3D models: the estimate of
+    :func:`jaxroll.grids.full_model_error`) and ``value`` (of :func:`jaxroll.grids.full_model_value`:
+    the dissipation form of R_r, which converges faster and more regularly than the moment form,
+    blended toward their midpoint at very low zeta; docs/validation.md sec. 3), ``truncation``
+    is ``error``; without (the slices), ``value`` is the pressure-moment form and
+    ``truncation`` its relative difference to the dissipation form (an indicator). The other
+    form stays in ``solution`` (``resistance_dissipation``, ``resistance_moment``)."""
     H = jnp.asarray(H, float)
     finite = jnp.isfinite(H)
     gamma = jnp.where(finite, contact_radius / jnp.where(finite, H, 1.0), 0.0)
-    scale = jnp.maximum(jnp.abs(resistance), 1e-300)
-    trunc = jax.lax.stop_gradient(jnp.abs(resistance - resistance_dissipation) / scale)
-    return RollingResult(value=resistance, contact_radius=contact_radius, gamma=gamma,
+    if error is None:
+        value = resistance
+        scale = jnp.maximum(jnp.abs(resistance), 1e-300)
+        trunc = jax.lax.stop_gradient(jnp.abs(resistance - resistance_dissipation) / scale)
+    else:
+        value, trunc = (resistance_dissipation if value is None else value), error
+    return RollingResult(value=value, contact_radius=contact_radius, gamma=gamma,
                          regime=jnp.asarray(int(REGIMES.full)), truncation=trunc, result=result,
                          solution=GridSolution(penetration=penetration, pressure=pressure, grid=grid,
                                                   iterations=iterations, residual=residual,
-                                                  resistance_dissipation=resistance_dissipation))
+                                                  resistance_dissipation=resistance_dissipation,
+                                                  resistance_moment=resistance))

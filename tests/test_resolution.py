@@ -22,7 +22,9 @@ def _rr(cells_per_radius, zeta, f):
     method = jr.Full(grid=jr.AutoGrid(cells_per_radius=cells_per_radius))
     res = jr.rolling_resistance(jr.StandardLinearSolid(G0, TAU, f), HALF_SPACE, radius=R, load=P,
                                 speed=zeta * A0 / TAU, method=method, throw=False)
-    return float(res.value), jr.RESULTS.names[int(res.result)]
+    # the moment form, on which these tolerances were measured (the reported dissipation form is
+    # checked against a convergence study in tests/test_grid_accuracy.py)
+    return float(res.solution.resistance_moment), jr.RESULTS.names[int(res.result)]
 
 
 def test_fine_grid_converges_at_the_peak():

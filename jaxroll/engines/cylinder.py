@@ -40,7 +40,7 @@ import jax.numpy as jnp
 from . import aperiodic as _aperiodic
 from .. import contact as _contact
 from .._numerics import as_float, to_complex
-from ..grids import FixedGrid
+from ..grids import FixedGrid, full_model_error, full_model_value, regime
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from ..materials.material import complex_modulus
 from ..result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
@@ -168,12 +168,19 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
 
 
 def result(s: CylinderSolution, grid: FixedGrid, layer, V, material) -> RollingResult:
+    """The :class:`~jaxroll.result.RollingResult`: the dissipation form of R_r with its error
+    estimate (:func:`jaxroll.grids.full_model_error` at the regime of the estimated contact)."""
+    a = s.estimated_half_width
+    zeta, breadth = regime(material, V, a)
     ok = grid.period_ok(s.estimated_half_width, V * material.longest_time(), 1)
     return full_model_result(
         s.resistance, s.resistance_dissipation, s.half_width, layer.H,
         result=merge_results(s.contact.result, first_failure((~ok, RESULTS.period_too_short))),
         penetration=s.contact.penetration, pressure=s.contact.pressure, grid=s.x,
         iterations=s.contact.iterations, residual=s.contact.residual,
+        error=full_model_error(s.resistance, s.resistance_dissipation, zeta, a / grid.spacing,
+                               "cylinder", s.half_width / a, breadth),
+        value=full_model_value(s.resistance, s.resistance_dissipation, zeta),
     )
 
 

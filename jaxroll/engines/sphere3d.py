@@ -61,7 +61,7 @@ from . import aperiodic as _aperiodic
 from .. import contact as _contact
 from .._numerics import as_float, where_safe
 from .contact_size import estimate_contact_size
-from ..grids import FixedGrid
+from ..grids import FixedGrid, full_model_error, full_model_value, regime
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from ..materials.material import complex_modulus, glassy_modulus
 from ..result import REGIMES, RESULTS, GridSolution, RollingResult, first_failure, full_model_result, merge_results
@@ -305,12 +305,19 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
 
 
 def result(s: SphereSolution, grid: FixedGrid, layer, V, material) -> RollingResult:
+    """The :class:`~jaxroll.result.RollingResult`: the dissipation form of R_r with its error
+    estimate (:func:`jaxroll.grids.full_model_error` at the regime of the estimated contact)."""
+    a = s.estimated_radius
+    zeta, breadth = regime(material, V, a)
     return full_model_result(
         s.resistance, s.resistance_dissipation, s.contact_radius, layer.H,
         result=merge_results(s.contact.result, first_failure(
             (~grid.period_ok(s.estimated_radius, V * material.longest_time(), 2), RESULTS.period_too_short))),
         penetration=s.contact.penetration, pressure=s.contact.pressure, grid=(s.x, s.y),
         iterations=s.contact.iterations, residual=s.contact.residual,
+        error=full_model_error(s.resistance, s.resistance_dissipation, zeta, a / grid.spacing,
+                               "sphere", s.contact_radius / a, breadth),
+        value=full_model_value(s.resistance, s.resistance_dissipation, zeta),
     )
 
 
