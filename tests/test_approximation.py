@@ -31,11 +31,11 @@ SLICE_GRID = jr.FixedGrid(1e-3, 16)
 SLACK = 0.10 + 0.02
 
 
-def _grid(material, layer, method, speeds, loads, radius=RADIUS):
+def _grid(material, layer, method, speeds, loads, radius=RADIUS, geometry="sphere"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", jr.ValidityWarning)
         return jr.rolling_resistance_grid(material, layer, radius=radius, loads=np.asarray(loads, float),
-                                          speeds=np.asarray(speeds, float), method=method)
+                                          speeds=np.asarray(speeds, float), method=method, geometry=geometry)
 
 
 @pytest.fixture(scope="module")
@@ -58,9 +58,8 @@ def test_slices_at_high_speed_on_thick_layers_are_flagged(algorithm):
     # PD and PP within 10 points of SP
     method = jr.Slices(algorithm, grid=SLICE_GRID)
     soft = jr.StandardLinearSolid(3e6, 0.25, 0.1)
-    for material, layer, speeds in ((PAPER, HALF_SPACE, [1.0, 10.0]), (soft, HALF_SPACE, [1.0]),
-                                    (PAPER, jr.Layer(0.2), [1.0])):
-        res = _grid(material, layer, method, speeds, [100.0])
+    for material, layer in ((PAPER, HALF_SPACE), (soft, HALF_SPACE), (PAPER, jr.Layer(0.2))):
+        res = _grid(material, layer, method, [1.0, 10.0], [100.0])  # one compiled program for all
         assert np.all(np.asarray(res.result) == jr.RESULTS.approximation_error), (layer.H, res.approximation)
         assert np.all(np.asarray(res.approximation) > 0.3)
 
@@ -83,11 +82,28 @@ def test_direct_on_the_shipped_measured_material(shipped):
     kw = dict(radius=0.01, load=10.0, speed=1e-3, throw=False)
     with pytest.warns(jr.ValidityWarning, match="use the full model"):
         relaxed = jr.rolling_resistance(m, jr.Layer(0.01), method=jr.Direct(), **kw)
-    assert int(relaxed.result) == jr.RESULTS.approximation_error and float(relaxed.approximation) > 5
+    assert int(relaxed.result) == jr.RESULTS.approximation_error and float(relaxed.approximation) > 0.8  # -88 %
     dynamic = jr.rolling_resistance(m, jr.Layer(0.01), method=jr.Direct(modulus="dynamic"), **kw)
     assert bool(dynamic.valid) and float(dynamic.approximation) < 0.1
     with pytest.raises(jr.SolverError, match=r"approximation_error.*full model"):
         jr.rolling_resistance(m, jr.Layer(0.01), method=jr.Direct(), radius=0.01, load=10.0, speed=1e-3)
+
+
+@pytest.mark.parametrize("modulus", ["static", "dynamic", "glassy"])
+def test_direct_cylinder_against_the_exact_viscoelastic_cylinder(modulus):
+    # an independent oracle: the exact SLS cylinder on a half-space (jr.reference, Hunter's
+    # problem; its own error ~1e-6). Every valid direct value is within 10 %, and wherever the
+    # direct method is more than 10 % off it says so. Measured: worst valid 7.4 % (glassy, f = 10)
+    speeds = np.logspace(-4, 1, 11)
+    for f in (0.3, 1.0, 3.0):
+        mat = jr.StandardLinearSolid(3e6, 0.25, f)
+        res = _grid(mat, HALF_SPACE, jr.Direct(modulus=modulus), speeds, [5000.0], geometry="cylinder")
+        exact = np.array([float(jr.reference.exact_cylinder_halfspace(mat, RADIUS, 5000.0, V).rolling_resistance)
+                          for V in speeds])
+        err = np.abs(np.asarray(res.value)[:, 0] / exact - 1)
+        ok = np.asarray(res.valid)[:, 0]
+        assert np.all(err[ok] <= 0.10), (f, err, res.approximation)
+        assert np.all(ok[err <= 0.05])  # and within 5 % it is valid: the estimate is not needlessly strict
 
 
 # --------------------------------------------------------------------- valid means close to full
