@@ -58,6 +58,11 @@ layer closed-form values per sphere case at the default rtol 1e-4):
 * presets (:func:`settings_for_rtol`), worst measured error against a 1e-8 rule over
   H = 30 mm, 2 mm, 10 um and V = 1e-4..1 m/s: rtol 1e-3: 8e-4; 1e-4: 7e-6; 1e-6: 5e-8.
 
+Error against the full model (:func:`approximation_error`, ``RollingResult.approximation``):
+the stationary-pressure assumption and the contact size, estimated from the contact sizes at the
+relaxed, rolling-frequency and glassy moduli and the material's stiffening across the contact's
+frequencies; :func:`plane_strain_ratio` serves the slices' estimate.
+
 Deviations from paper: the mode modulus is ``conj(G*(q_x V))`` (inside ``surface_compliance``);
 eq. 19's cases are swapped (the nonzero case is ``m1 + m2 = 0`` and ``n1 + n2 = 0``);
 eq. 47 uses the compressible ``T``.
