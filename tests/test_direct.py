@@ -55,7 +55,10 @@ def test_cylinder_halfspace_at_large_v_tau_over_a(zeta):
     res = rr(load=1000.0, speed=V, geometry="cylinder")
     ref = float(jr.reference.persson_cylinder_halfspace(MAT, R, 1000.0, V))
     err = abs(float(res.value) / ref - 1)
-    assert err < 1e-4 and err <= float(res.truncation) + 1e-10 and bool(res.valid)
+    # (the quadrature is under test: near zeta = 100 the relaxed contact's error against the full
+    # model, ~10 %, may flag the value approximation_error, tests/test_approximation.py)
+    assert err < 1e-4 and err <= float(res.truncation) + 1e-10
+    assert int(res.result) in (jr.RESULTS.successful, jr.RESULTS.approximation_error)
 
 
 @pytest.mark.parametrize("V", [1e-4, 1e-2, 1.0])
@@ -192,13 +195,15 @@ def test_periodic_2000_terms_low_speed():
 # ---------------------------------------------------------------- regimes and validity
 
 def test_auto_regimes_and_validity():
-    res = rr(jr.Layer(30e-3), load=50.0, speed=0.01)
+    # valid regimes at 0.3 mm/s, far below the R_r peak (near it the method's estimated error
+    # against the full model flags the value: tests/test_approximation.py)
+    res = rr(jr.Layer(30e-3), load=50.0, speed=3e-4)
     assert int(res.regime) == 0 and bool(res.valid) and float(res.gamma) < 0.9
     with pytest.warns(jr.PlausibilityWarning, match="radius R = 2000 m is above 5 m"):  # [ZG] sec. 4.6, on purpose
-        res = rr(jr.Layer(10e-6), radius=2000.0, load=500.0, speed=0.01)
+        res = rr(jr.Layer(10e-6), radius=2000.0, load=500.0, speed=3e-4)
     assert int(res.regime) == 1 and bool(res.valid) and float(res.gamma) > 300
     with pytest.warns(jr.PlausibilityWarning):
-        res = rr(jr.Layer(10e-6, nu=0.3), radius=2000.0, load=500.0, speed=0.01)
+        res = rr(jr.Layer(10e-6, nu=0.3), radius=2000.0, load=500.0, speed=3e-4)
     assert int(res.regime) == 2 and bool(res.valid)
     # H = 5 mm, P = 150 N: gamma ~ 1 > 0.9 ([ZG] fig. 7): outside the thick range -> warning
     with pytest.warns(jr.ValidityWarning, match="outside the range of validity"):
