@@ -11,6 +11,12 @@ import scipy.special as ss
 import jaxroll as jr
 from jaxroll.engines.direct import settings_for_rtol
 
+# These tests check the direct method's quadrature and pressure models against exact oracles at
+# points near and above the R_r peak, where its estimated error against the full model flags the
+# value (RESULTS.approximation_error, tests/test_approximation.py): that flag's warning only is
+# ignored here; every other ValidityWarning still fails a test.
+pytestmark = pytest.mark.filterwarnings("ignore:.*the approximate method's estimated error:jaxroll.ValidityWarning")
+
 MAT = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 R = 0.02
 HALF = jr.Layer(jnp.inf)
