@@ -316,13 +316,14 @@ def test_geometry_type_and_names():
                               method=jr.Direct())
 
 
+@pytest.mark.filterwarnings("ignore:.*the approximate method's estimated error:jaxroll.ValidityWarning")
 def test_solution_part_only_on_grid_models():
     # the direct method has no grid solution; a full model's carries the pressure that balances
     # the load (sum p dx = P: an exact property of the solved contact, independent of the value)
     layer = jr.Layer(0.01)
     direct = jr.rolling_resistance(SLS, layer, radius=0.02, load=1e4, speed=0.01, geometry="cylinder",
-                                   method=jr.Direct())
-    assert direct.solution is None
+                                   method=jr.Direct(), throw=False)  # flagged near the peak; its fields under test
+    assert direct.solution is None and direct.approximation is not None
     full = jr.rolling_resistance(SLS, layer, radius=0.02, load=1e4, speed=0.01, geometry="cylinder",
                                  method=jr.Full())
     sol = full.solution
