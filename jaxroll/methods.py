@@ -56,6 +56,9 @@ class AbstractMethod(eqx.Module):
     #: Largest ``RollingResult.truncation`` (the method's own relative error estimate) of a
     #: valid result; see each method.
     max_truncation = 0.1
+    #: Largest ``RollingResult.approximation`` (an approximate method's estimated error against
+    #: the full model) of a valid result: 10 %.
+    max_approximation = 0.1
 
     @abc.abstractmethod
     def evaluate(self, material, layer, R, P, V, geometry) -> RollingResult:
@@ -135,7 +138,10 @@ class Direct(AbstractMethod):
     thick layers, or the thin-layer shapes) dissipating in
     the rolling compliance ([ZG] eqs. 26, 29, 37, 42, 47). Cheap (milliseconds per point) but the
     stationary-pressure assumption is low by ~20 % near and above the R_r peak (see the
-    accuracy table of docs/methods.md sec. 3): for screening.
+    accuracy table of docs/methods.md sec. 3): for screening. Each result carries
+    ``approximation``, the estimated error against the full model
+    (:func:`jaxroll.engines.direct.approximation_error`: contact size and stationary pressure);
+    above :attr:`max_approximation` (10 %) it is flagged ``RESULTS.approximation_error``.
 
     Args:
         pressure: ``"auto"`` (thick model where Jaffar's law has a solution, else thin),
@@ -383,7 +389,10 @@ def _batch_size(args, axes) -> int:
 class Slices(_GridMethod):
     """A rigid sphere from 2D cylinder slices ([ZG] sec. 3): ``"PD"`` (penetration consistency,
     eq. 9), ``"PP"`` (load equilibrium, eq. 10) or ``"SP"`` (both, eq. 11, the most accurate on
-    thin and intermediate layers).
+    thin and intermediate layers). Each result carries ``approximation``, the estimated error
+    against the full 3D model (:func:`jaxroll.engines.slices.approximation_error`: plane strain
+    at high speed on thick layers, PD's load defect); above :attr:`max_approximation` (10 %) it
+    is flagged ``RESULTS.approximation_error``.
 
     Args:
         algorithm: ``"PD"``, ``"PP"`` or ``"SP"``.

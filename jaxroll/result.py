@@ -112,6 +112,10 @@ RESULTS = _Results([
     ("outside_measured_range", "the temperature, or the contact's reduced frequency V a_T / a, lies outside what the "
                                "material was measured over: the shift law or the Prony series is extrapolated there "
                                "(measure there, or read the value as a guess)"),
+    ("approximation_error", "the approximate method's estimated error against the full model (RollingResult."
+                            "approximation) exceeds 10 %: its assumptions (stationary pressure and contact size of "
+                            "the direct method, plane-strain slices) fail here; use the full model (method=None or "
+                            "jr.Full())"),
 ])
 
 
@@ -194,6 +198,11 @@ class RollingResult(eqx.Module):
             trustworthy; otherwise the first reason it is not.
         solution: the grid models' :class:`GridSolution` (pressure, penetration, grid,
             iterations, residual); None for the direct method.
+        approximation: the approximate methods' (direct, slices) estimate of their own relative
+            error against the full model, ``|R_r/R_r,full - 1|`` [-] (the model error of the
+            method's assumptions, apart from ``truncation``, its numerical error); a valid
+            result has it at most the method's ``max_approximation`` (0.1). None for the full
+            models.
     """
 
     value: jax.Array
@@ -203,6 +212,7 @@ class RollingResult(eqx.Module):
     truncation: jax.Array
     result: jax.Array
     solution: GridSolution | None = None
+    approximation: jax.Array | None = None
 
     @property
     def valid(self) -> jax.Array:
@@ -223,6 +233,8 @@ class RollingResult(eqx.Module):
         fields = {"rolling_resistance": (np.asarray(self.value), unit), "valid": (np.asarray(self.valid), "-"),
                   "result": (np.asarray(self.result), "-"), "contact_radius": (np.asarray(self.contact_radius), "m"),
                   "gamma": (np.asarray(self.gamma), "-"), "truncation": (np.asarray(self.truncation), "-")}
+        if self.approximation is not None:
+            fields["approximation"] = (np.asarray(self.approximation), "-")
         return coords, fields, {"geometry": geometry, "result_names": list(RESULTS.names)}
 
     def to_xarray(self, speeds, loads, *, geometry="sphere"):
@@ -230,8 +242,9 @@ class RollingResult(eqx.Module):
         dimensions ``(speed, load)`` (the grid's axes, which the result does not store: pass the
         same ``speeds`` [m/s] and ``loads`` [N, or N/m for cylinders]); variables
         ``rolling_resistance``, ``valid``, ``result`` (:data:`RESULTS` codes; names in
-        ``attrs["result_names"]``), ``contact_radius`` [m], ``gamma``, ``truncation``, each with
-        ``attrs["units"]``. Needs xarray (an optional dependency)."""
+        ``attrs["result_names"]``), ``contact_radius`` [m], ``gamma``, ``truncation`` (and
+        ``approximation`` for the approximate methods), each with ``attrs["units"]``. Needs
+        xarray (an optional dependency)."""
         from ._labelled import to_xarray
 
         return to_xarray(*self._table(speeds, loads, geometry))
@@ -253,7 +266,8 @@ def first_failure(*checks) -> jax.Array:
     return out
 
 
-def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipative, max_truncation) -> RollingResult:
+def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipative, max_truncation,
+                   max_approximation=0.1) -> RollingResult:
     """``res`` with the checks that every method shares applied after its own (``result``
     keeps the first failure):
 
@@ -265,7 +279,10 @@ def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipati
       modulus: the largest contact; the slices' eq.-2 radius is the geometric chord, not it);
     * the value is positive (``nonpositive``): a rolling roller on a dissipative material has
       ``R_r > 0``. At ``V = 0`` or on an elastic material the true ``R_r`` is 0 and the value
-      (round-off of either sign) is not checked for sign or truncation.
+      (round-off of either sign) is not checked for sign or truncation;
+    * an approximate method's estimated error against the full model, ``approximation`` (where
+      the method gives one), is at most ``max_approximation`` (``approximation_error``; not
+      checked where nothing rolls, as above).
 
     ``radius`` [m], ``speed`` [m/s] and ``contact_size`` [m] broadcast against the fields;
     works under jit/vmap.
@@ -281,8 +298,13 @@ def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipati
         (rolling & ~(res.truncation <= max_truncation), RESULTS.truncation_too_large),
         (contact_size > MAX_CONTACT_RATIO * jnp.asarray(radius), RESULTS.contact_too_large),
         (nonpositive, RESULTS.nonpositive),
+        (rolling & ~(_approximation(res) <= max_approximation), RESULTS.approximation_error),
     )
     return eqx.tree_at(lambda r: r.result, res, merge_results(res.result, checks))
+
+
+def _approximation(res):
+    return jnp.zeros_like(res.value) if res.approximation is None else res.approximation
 
 
 def merge_results(first, second) -> jax.Array:

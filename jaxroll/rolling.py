@@ -104,6 +104,7 @@ def _validated(method, material, layer, res, R, P, V, geometry):
     size_of = lambda p: estimate_contact_size(material, layer, R, p, geometry)  # noqa: E731
     size = size_of(P) if jnp.ndim(P) == 0 else jax.vmap(size_of)(P)
     return check_validity(res, radius=R, speed=V, contact_size=size, max_truncation=method.max_truncation,
+                          max_approximation=method.max_approximation,
                           dissipative=material.glassy_modulus() > material.relaxed_modulus())
 
 

@@ -235,6 +235,7 @@ def test_paper_sphere_at_1_m_s_is_small_on_an_infinite_layer():
     assert m.grid.memory_estimate(2) < 100 * 2**20
 
 
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # the direct value is flagged approximation_error
 def test_high_speed_limit_of_the_direct_to_full_ratio():
     """At V >> a/tau the layer is elastic at the glassy modulus G0 (1+f) while the direct method's
     stationary pressure uses the relaxed one: its contact radius is (1+f)^(1/3) too large and
@@ -244,7 +245,7 @@ def test_high_speed_limit_of_the_direct_to_full_ratio():
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
     kw = dict(radius=0.02, load=100.0, speed=100.0)
     full = jr.rolling_resistance(mat, jr.Layer(np.inf), method=jr.Full(grid=jr.AutoGrid(cells_per_radius=24)), **kw)
-    direct = jr.rolling_resistance(mat, jr.Layer(np.inf), method="direct", **kw)
+    direct = jr.rolling_resistance(mat, jr.Layer(np.inf), method="direct", throw=False, **kw)  # flagged: -20 %
     assert abs(float(direct.value) / float(full.value) - 2.0 ** (-1 / 3)) < 0.01
 
 

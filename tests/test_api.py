@@ -110,8 +110,10 @@ def test_autogrid_under_a_transformation_raises_with_what_to_do():
     with pytest.raises(ValueError, match="sizes its grid"):
         jax.grad(lambda G0: jr.rolling_resistance(jr.StandardLinearSolid(G0, 0.25, 1.0), layer, radius=R, load=100.0,
                                                   speed=0.01, method="full").value)(3e6)
-    # the direct method has no grid: fine under a transformation
-    jax.jit(lambda V: jr.rolling_resistance(SLS, layer, radius=R, load=100.0, speed=V, method="direct").value)(0.01)
+    # the direct method has no grid: fine under a transformation (throw=False: at the R_r peak
+    # its estimated error against the full model flags the point)
+    jax.jit(lambda V: jr.rolling_resistance(SLS, layer, radius=R, load=100.0, speed=V, method="direct",
+                                            throw=False).value)(0.01)
 
 
 def test_resolve_covers_the_envelope_and_matches_eager_autogrid():
@@ -267,13 +269,15 @@ def test_material_protocol():
 
 def test_throw_raises_with_the_reason_and_result_codes_survive_vmap():
     layer = jr.Layer(0.005)  # gamma > 0.9 at 150 N: outside Jaffar's thick-layer model
+    # 0.3 mm/s: far below the R_r peak, where the direct method is valid at 20 N (near the peak its
+    # estimated error against the full model flags it, tests/test_approximation.py)
     with pytest.raises(Exception, match="outside the range of validity of the stationary pressure model"):
-        jr.rolling_resistance(SLS, layer, radius=R, load=150.0, speed=0.01, method="direct")
-    codes = jax.vmap(lambda P: jr.rolling_resistance(SLS, layer, radius=R, load=P, speed=0.01, method="direct",
+        jr.rolling_resistance(SLS, layer, radius=R, load=150.0, speed=3e-4, method="direct")
+    codes = jax.vmap(lambda P: jr.rolling_resistance(SLS, layer, radius=R, load=P, speed=3e-4, method="direct",
                                                      throw=False).result)(jnp.asarray([20.0, 150.0]))
     np.testing.assert_array_equal(np.asarray(codes), [jr.RESULTS.successful, jr.RESULTS.outside_pressure_model])
     with pytest.warns(jr.ValidityWarning, match="1 of 2 result"):  # eager throw=False warns
-        res = jr.rolling_resistance_grid(SLS, layer, radius=R, loads=[20.0, 150.0], speeds=[0.01], method="direct")
+        res = jr.rolling_resistance_grid(SLS, layer, radius=R, loads=[20.0, 150.0], speeds=[3e-4], method="direct")
     assert list(res.reasons()[0]) == ["successful", jr.RESULTS.message(jr.RESULTS.outside_pressure_model)]
     assert len(set(jr.RESULTS.messages())) == len(jr.RESULTS)
 
@@ -316,13 +320,14 @@ def test_geometry_type_and_names():
                               method=jr.Direct())
 
 
+@pytest.mark.filterwarnings("ignore:.*the approximate method's estimated error:jaxroll.ValidityWarning")
 def test_solution_part_only_on_grid_models():
     # the direct method has no grid solution; a full model's carries the pressure that balances
     # the load (sum p dx = P: an exact property of the solved contact, independent of the value)
     layer = jr.Layer(0.01)
     direct = jr.rolling_resistance(SLS, layer, radius=0.02, load=1e4, speed=0.01, geometry="cylinder",
-                                   method=jr.Direct())
-    assert direct.solution is None
+                                   method=jr.Direct(), throw=False)  # flagged near the peak; its fields under test
+    assert direct.solution is None and direct.approximation is not None
     full = jr.rolling_resistance(SLS, layer, radius=0.02, load=1e4, speed=0.01, geometry="cylinder",
                                  method=jr.Full())
     sol = full.solution

@@ -64,11 +64,12 @@ def test_sweep_outside_validity_writes_valid_0_and_warns(tmp_path, capsys):
 # G0 and tau of a sphere on a thick layer are ~99.9 % correlated in rolling-resistance data alone
 # (the identifiability warning is the expected, physical outcome; see tests/test_fit.py)
 @pytest.mark.filterwarnings("ignore::jaxroll.identify.fit.IdentifiabilityWarning")
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # the direct data near the peak are flagged
 def test_fit_from_csv(tmp_path):
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
     layer = jr.Layer(H=0.03, rho=1000.0)
     V, P = [a.ravel() for a in np.meshgrid(np.logspace(-4, 0, 6), [20.0, 80.0, 150.0])]
-    vals = [float(jr.rolling_resistance(mat, layer, radius=0.02, load=p, speed=v, method="direct").value)
+    vals = [float(jr.rolling_resistance(mat, layer, radius=0.02, load=p, speed=v, method="direct", throw=False).value)
             for v, p in zip(V, P)]
     data = tmp_path / "rr.csv"
     with open(data, "w", newline="") as fh:

@@ -167,8 +167,10 @@ def test_direct_contact_modulus_on_the_shipped_material(shipped_material):
     kw = dict(radius=0.01, load=10.0, speed=1e-3)
     layer = jr.Layer(H=0.01)
     full = jr.rolling_resistance(m, layer, **kw)  # the default: the full 3D model
-    err = {mod: float(jr.rolling_resistance(m, layer, method=jr.Direct(modulus=mod), **kw).value) / float(full.value) - 1
-           for mod in ("static", "dynamic", "glassy")}
+    with warnings.catch_warnings():  # the relaxed and glassy contacts are flagged (tests/test_approximation.py)
+        warnings.simplefilter("ignore", jr.ValidityWarning)
+        err = {mod: float(jr.rolling_resistance(m, layer, method=jr.Direct(modulus=mod), throw=False, **kw).value)
+               / float(full.value) - 1 for mod in ("static", "dynamic", "glassy")}
     assert err["static"] < -0.5, err  # the relaxed contact: far too large, R_r far too low
     assert abs(err["dynamic"]) < 0.1, err
     assert abs(err["glassy"]) < abs(err["static"]), err

@@ -11,6 +11,12 @@ import scipy.special as ss
 import jaxroll as jr
 from jaxroll.engines.direct import settings_for_rtol
 
+# These tests check the direct method's quadrature and pressure models against exact oracles at
+# points near and above the R_r peak, where its estimated error against the full model flags the
+# value (RESULTS.approximation_error, tests/test_approximation.py): that flag's warning only is
+# ignored here; every other ValidityWarning still fails a test.
+pytestmark = pytest.mark.filterwarnings("ignore:.*the approximate method's estimated error:jaxroll.ValidityWarning")
+
 MAT = jr.StandardLinearSolid(3e6, 0.25, 1.0)
 R = 0.02
 HALF = jr.Layer(jnp.inf)
@@ -55,7 +61,10 @@ def test_cylinder_halfspace_at_large_v_tau_over_a(zeta):
     res = rr(load=1000.0, speed=V, geometry="cylinder")
     ref = float(jr.reference.persson_cylinder_halfspace(MAT, R, 1000.0, V))
     err = abs(float(res.value) / ref - 1)
-    assert err < 1e-4 and err <= float(res.truncation) + 1e-10 and bool(res.valid)
+    # (the quadrature is under test: near zeta = 100 the relaxed contact's error against the full
+    # model, ~10 %, may flag the value approximation_error, tests/test_approximation.py)
+    assert err < 1e-4 and err <= float(res.truncation) + 1e-10
+    assert int(res.result) in (jr.RESULTS.successful, jr.RESULTS.approximation_error)
 
 
 @pytest.mark.parametrize("V", [1e-4, 1e-2, 1.0])
@@ -192,13 +201,15 @@ def test_periodic_2000_terms_low_speed():
 # ---------------------------------------------------------------- regimes and validity
 
 def test_auto_regimes_and_validity():
-    res = rr(jr.Layer(30e-3), load=50.0, speed=0.01)
+    # valid regimes at 0.3 mm/s, far below the R_r peak (near it the method's estimated error
+    # against the full model flags the value: tests/test_approximation.py)
+    res = rr(jr.Layer(30e-3), load=50.0, speed=3e-4)
     assert int(res.regime) == 0 and bool(res.valid) and float(res.gamma) < 0.9
     with pytest.warns(jr.PlausibilityWarning, match="radius R = 2000 m is above 5 m"):  # [ZG] sec. 4.6, on purpose
-        res = rr(jr.Layer(10e-6), radius=2000.0, load=500.0, speed=0.01)
+        res = rr(jr.Layer(10e-6), radius=2000.0, load=500.0, speed=3e-4)
     assert int(res.regime) == 1 and bool(res.valid) and float(res.gamma) > 300
     with pytest.warns(jr.PlausibilityWarning):
-        res = rr(jr.Layer(10e-6, nu=0.3), radius=2000.0, load=500.0, speed=0.01)
+        res = rr(jr.Layer(10e-6, nu=0.3), radius=2000.0, load=500.0, speed=3e-4)
     assert int(res.regime) == 2 and bool(res.valid)
     # H = 5 mm, P = 150 N: gamma ~ 1 > 0.9 ([ZG] fig. 7): outside the thick range -> warning
     with pytest.warns(jr.ValidityWarning, match="outside the range of validity"):
@@ -361,14 +372,14 @@ def test_gradients_jit_and_thin_and_cylinder():
     def thin(p):
         mat = jr.StandardLinearSolid(p["G0"], p["tau"], 1.0)
         return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=2000.0, load=p["P"], speed=p["V"],
-                                     method="direct").value
+                                     method="direct", throw=False).value
 
     _fd_check(thin, dict(G0=3e6, tau=0.25, H=10e-6, P=800.0, V=0.003))
 
     def cyl(p):
         mat = jr.StandardLinearSolid(3e6, p["tau"], p["f"])
         return jr.rolling_resistance(mat, jr.Layer(p["H"]), radius=p["R"], load=p["P"], speed=p["V"],
-                                     geometry="cylinder", method="direct").value
+                                     geometry="cylinder", method="direct", throw=False).value
 
     _fd_check(cyl, dict(tau=0.25, f=1.0, H=30e-3, R=0.02, P=1000.0, V=0.05))
 

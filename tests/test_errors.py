@@ -44,9 +44,10 @@ def test_throw_raises_a_solver_error_with_the_code_in_one_line():
     text = str(err)
     assert "\n" not in text and text.startswith("rolling resistance not trustworthy [RESULTS.outside_pressure_model]")
     assert text.endswith(jr.RESULTS.message(code))
-    # a table: the first failing point's code, and the count
+    # a table: the first failing point's code, and the count (at 0.3 mm/s, below the R_r peak, the
+    # 20 N point is valid; near the peak the method's estimated error would flag it too)
     with pytest.raises(jr.SolverError, match=r"at 1 of 2 points") as exc:
-        jr.rolling_resistance_grid(SLS, THIN, radius=R, loads=[20.0, 150.0], speeds=[0.01], method="direct",
+        jr.rolling_resistance_grid(SLS, THIN, radius=R, loads=[20.0, 150.0], speeds=[3e-4], method="direct",
                                    throw=True)
     assert exc.value.code == code and (exc.value.count, exc.value.total) == (1, 2)
 

@@ -14,7 +14,9 @@ from jaxroll.apps import plot  # noqa: E402
 from jaxroll.identify.fit import FitResult  # noqa: E402
 
 MAT, LAYER, R = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(0.03, rho=1000.0), 0.02
-SPEEDS, LOADS = np.array([1e-3, 1e-2]), np.array([50.0, 100.0, 150.0])  # not square: a swapped axis fails
+# not square: a swapped axis fails; below the R_r peak, where the direct method is valid (near it
+# its estimated error against the full model flags it)
+SPEEDS, LOADS = np.array([3e-4, 1e-3]), np.array([50.0, 100.0, 150.0])
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +39,7 @@ def test_grid_result_labels_each_value_with_its_own_speed_and_load(grid):
             # one model, two compiled programs (vmapped grid vs single point): rounding only
             assert float(ds["rolling_resistance"].sel(speed=V, load=P)) == pytest.approx(point, rel=1e-12)
             assert df.loc[(V, P), "rolling_resistance"] == pytest.approx(point, rel=1e-12)
-    assert bool(ds["valid"].all())
+    assert bool(ds["valid"].all()) and ds["approximation"].attrs["units"] == "-"  # the direct method's estimate
     cyl = grid.to_xarray(SPEEDS, LOADS, geometry="cylinder")
     assert cyl["load"].attrs["units"] == "N/m" and cyl["rolling_resistance"].attrs["units"] == "N/m"
     with pytest.raises(ValueError, match="shape"):

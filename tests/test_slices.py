@@ -227,6 +227,7 @@ def test_invalid_options():
                               method=jr.Slices(grid=jr.FixedGrid(1e-4, 101, period=0.1)))
 
 
+@pytest.mark.filterwarnings("ignore:.*the approximate method's estimated error:jaxroll.ValidityWarning")  # PD, flagged
 def test_rolling_result_fields():
     s = _case("PD")
     r = jr.rolling_resistance(jr.StandardLinearSolid(G0, TAU, F), jr.Layer(H), radius=R, load=P, speed=V,
@@ -238,8 +239,10 @@ def test_rolling_result_fields():
     assert 0 <= float(r.truncation) < 5e-3
     assert int(r.regime) == 4
     # the reduced grid's period (~51 estimated half-widths, and > 20 V tau) meets the 2D
-    # cylinder's measured rule L >= 20 max(a_est, V tau)
-    assert int(r.result) == jr.RESULTS.successful and bool(r.valid)
+    # cylinder's measured rule L >= 20 max(a_est, V tau): no solver or period code; PD on this
+    # 5 mm layer is -15 % against the full 3D model (benchmarks/approx_validity.py; it carries
+    # ~15 % less than P), so its estimated error flags it
+    assert int(r.result) == jr.RESULTS.approximation_error and float(r.approximation) > 0.1
 
 
 @pytest.mark.slow

@@ -81,7 +81,10 @@ def test_direct_valid_results_are_positive_and_match_the_closed_forms(geometry, 
     _assert_valid_means_positive(res)
     # contact radius <= 0.3 R for every valid result (the pressure model's radius)
     assert np.all(np.asarray(res.contact_radius)[ok] <= MAX_CONTACT_RATIO * d["R"][ok])
-    assert ok.sum() > 0.3 * n  # the envelope is mostly inside the method's range
+    # the envelope is mostly inside the pressure models' range; a part of it is flagged for the
+    # method's estimated error against the full model (tests/test_approximation.py)
+    computed = ok | (np.asarray(res.result) == jr.RESULTS.approximation_error)
+    assert computed.sum() > 0.3 * n
     assert err.max() < 1e-3, f"worst {err.max():.2e}"
     assert np.all(err <= 10 * np.asarray(res.truncation)[half] + floor)
 
@@ -133,7 +136,8 @@ def test_grid_methods_valid_results_are_positive(geometry, method, n):
     # worst -1.3 % at V tau/a0 = 132, -1.1 % at every V tau/a0 < 1e-4, where the method's own
     # estimate says 2.3 %)
     assert np.all(np.abs(errors) < 0.02)
-    assert codes.count(jr.RESULTS.successful) > 0
+    # some points are computed (the slices' estimated error against the full model may flag them)
+    assert codes.count(jr.RESULTS.successful) + codes.count(jr.RESULTS.approximation_error) > 0
 
 
 # ------------------------------------------------------------------ checks under jit
