@@ -26,6 +26,7 @@ import warnings
 import numpy as np
 
 import jaxroll as jr
+from jaxroll import RESULTS
 import _numbers
 from _timing import summary, timed
 
@@ -82,7 +83,7 @@ def main():
                     print(f"{geometry} | {H * 1e3:g} | {V:g} | {name} | {first:.2f} | {run:.4f} | "
                           f"{value:.4g}{flag} | {dev}", flush=True)
                     rows.append(dict(geometry=geometry, H=H, V=V, method=name, first_s=first, run_s=run, value=value,
-                                     valid=bool(out.valid), reasons="" if bool(out.valid) else out.reasons(),
+                                     valid=bool(out.valid), reasons="" if bool(out.valid) else RESULTS.names[int(out.result)],
                                      deviation=value / ref - 1 if ref else None))
                     if name != "full" and ref_run:
                         summary(f"default_method.py{' --quick' if args.quick else ''} ({geometry}, H = {H * 1e3:g} mm, "
