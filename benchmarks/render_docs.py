@@ -109,7 +109,7 @@ def first_use(numbers: dict) -> str:
         parts.append(f"the tests ({counts}) took {s['pytest_s'] / 60:.1f} min of pytest inside "
                      f"{s['ci_run_s'] / 60:.1f} min of `.ci/run` on a clean clone (install included; load average "
                      f"{s['load_before']:g} before, {s['load_after']:g} after)")
-    return (f"Measured by `python benchmarks/first_use.py` on {m['cores']} cores of a {m['cpu']} ({m['date']}, "
+    return (f"Measured by `python benchmarks/first_use.py` on {m['cores']} cores, {m['cpu']} ({m['date']}, "
             f"commit {m['commit']}): " + "; ".join(parts) + ".")
 
 

@@ -1,0 +1,46 @@
+"""The numbers the docs quote come from benchmarks/numbers.json, written by the benchmark scripts
+(``--record``): every generated block of README.md and benchmarks/README.md equals what
+benchmarks/render_docs.py writes from that file, so a re-measured number cannot leave a stale
+copy in the docs, and a hand edit of a generated number fails here."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _render_docs():
+    spec = importlib.util.spec_from_file_location("render_docs", REPO / "benchmarks" / "render_docs.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_generated_blocks_match_numbers_file():
+    rd = _render_docs()
+    numbers = json.loads(rd.NUMBERS.read_text())
+    seen = set()
+    for path in rd.FILES:
+        text = path.read_text()
+        seen.update(rd.blocks(text))
+        assert rd.render(text, numbers) == text, f"{path.name}: stale; run python benchmarks/render_docs.py"
+    assert seen == set(rd.BLOCKS), f"blocks not placed in any file: {set(rd.BLOCKS) - seen}"
+
+
+def test_numbers_file_records_where_it_was_measured():
+    numbers = json.loads((REPO / "benchmarks" / "numbers.json").read_text())
+    for name, section in numbers.items():
+        m = section["measured"]
+        assert m["cores"] >= 1 and m["cpu"] and m["date"] and len(m["load_average"]) == 3, name
+
+
+def test_methods_table_flags_what_the_method_flagged():
+    # the rendering must not drop a flag: a row whose points were all invalid says "(flagged)"
+    rd = _render_docs()
+    rows = [dict(geometry="sphere", H=0.005, V=v, method=m, valid=(m == "full"), deviation=d)
+            for v, d in ((1e-3, 0.0), (1e-2, -0.25)) for m in ("full", "direct")]
+    assert rd._deviations(rows, "sphere", 0.005, "direct") == "0, -25 % (flagged)"
+    rows[3]["valid"] = True
+    assert rd._deviations(rows, "sphere", 0.005, "direct") == "0, -25 % (1 of 2 flagged)"
+    assert rd._deviations(rows, "sphere", 0.005, "full") == "reference"
