@@ -57,6 +57,9 @@ def time_suite() -> dict:
         proc = subprocess.run(["bash", ".ci/run"], cwd=clone, capture_output=True, text=True,
                               env={k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")})
         seconds = time.perf_counter() - t0
+    log = Path(tempfile.gettempdir()) / "jaxroll-first-use-ci-run.log"
+    log.write_text(proc.stdout + proc.stderr)
+    print(f".ci/run's output: {log}", flush=True)
     out = {"ci_run_s": round(seconds, 1), "exit": proc.returncode, "load_before": round(load0, 1),
            "load_after": round(os.getloadavg()[0], 1), **pytest_counts(proc.stdout + proc.stderr)}
     return out
