@@ -35,7 +35,12 @@ def run(args) -> int:
         if args.drop_loss_artifacts:
             weights[artifacts, 1] = 0.0
         tell(f"material: Prony fit to {len(master.omega)} master-curve points")
-        pf = jr.fit_prony(master, n_terms=args.prony_terms, weights=weights, smoothness=args.prony_smoothness)
+        if args.prony_terms is not None and args.prony_smoothness is not None:
+            raise ValueError("--prony-terms selects the fewest-terms fit and --prony-smoothness the smooth one: give one")
+        fewest = args.prony_terms is not None
+        smoothness = None if fewest else args.prony_smoothness or jr.materials.prony.SMOOTHNESS
+        pf = jr.fit_prony(master, smoothness=smoothness, weights=weights,
+                          **({"n_terms": args.prony_terms} if fewest else {}))
     warned = [str(w.message) for w in caught if issubclass(w.category, jr.DataWarning)]
     warned += [n if "Arrhenius" in n else f"Arrhenius: {n}" for n in arr.notes]
     warned += [n if "WLF" in n else f"WLF: {n}" for n in wlf.notes if n not in warned]
@@ -81,7 +86,7 @@ def run(args) -> int:
             "Arrhenius": {"activation_energy": arr.params["activation_energy"],
                           "ci95": _ci(arr)["activation_energy"], "rms_decades": arr.rms},
             "warnings": warned,
-            "prony": {"n_terms": pf.n_terms, "smoothness": args.prony_smoothness, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+            "prony": {"n_terms": pf.n_terms, "smoothness": smoothness, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
                       "rms_log_per_decade": {f"1e{d}": sl for d, sl in per_decade.items()},
                       "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
                                                    for f in master.frequency[artifacts]}),
@@ -144,10 +149,12 @@ def add_parser(sub) -> None:
                     help="moduli compared when shifting the sets (storage: robust to loss artifacts such as an "
                     "upturn at the top frequency)")
     mt.add_argument("--prony-terms", dest="prony_terms", type=count("--prony-terms"), default=None,
-                    help="relaxation times before pruning (default: one per decade of the master curve, plus one)")
-    mt.add_argument("--prony-smoothness", dest="prony_smoothness", type=positive("--prony-smoothness"), default=None,
-                    help="a smooth spectrum: 3 fixed relaxation times per decade with this weight on the curvature "
-                    "of log G_i (e.g. 1: the loss curve without ripples from the term spacing; --prony-terms unused)")
+                    help="the fewest-terms Prony fit (NNLS + refinement) from this many relaxation times before "
+                    "pruning (e.g. one per decade of the master curve, plus one) instead of the smooth spectrum")
+    mt.add_argument("--prony-smoothness", dest="prony_smoothness", type=positive("--prony-smoothness"),
+                    default=None, help="weight of the smooth spectrum's curvature penalty (3 fixed relaxation times "
+                    "per decade; default 3: the loss curve, and the rolling resistance in temperature, without "
+                    "ripples from the term spacing)")
     mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
                     help="leave out of the Prony fit the loss values at a measured frequency where the loss turns "
                     "up in most sets (jaxroll.materials.loss_artifacts: its second difference along each sweep above 4 robust "
