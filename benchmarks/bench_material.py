@@ -1,5 +1,7 @@
 """Time the steps of ``jaxroll material`` on the shipped 21-temperature DMA file (compute only:
-no figures, no files).
+no figures, no files), and pyvisco's pipeline on the same file side by side where pyvisco is
+importable (the ``peer`` extra): its shift factors, WLF fit, master curve and Prony fit with
+the optimisation its own test of this file uses (``tests/test_dma.py::test_peer_pyvisco``).
 
 Each step is timed after one warm-up call (its compilation reported apart), median of
 ``--repeat`` runs. Run: ``python benchmarks/bench_material.py [--repeat 5]``.
@@ -41,6 +43,34 @@ def steps():
     return out, pf
 
 
+def pyvisco_steps(pyvisco):
+    """``{step: seconds}`` of pyvisco's pipeline on the same file (E, Hz, degC as it reads it)."""
+    out = {}
+    t = time.perf_counter()
+    df_raw, _, _ = pyvisco.load.user_raw(pyvisco.load.file(str(DATA)), "freq", "E")
+    out["read"] = time.perf_counter() - t
+    t = time.perf_counter()
+    df_aT, _ = pyvisco.master.get_aT(df_raw, 25)
+    out["shift factors"] = time.perf_counter() - t
+    t = time.perf_counter()
+    pyvisco.shift.fit_WLF(25, df_aT)
+    out["WLF"] = time.perf_counter() - t
+    t = time.perf_counter()
+    df_master = pyvisco.master.smooth(pyvisco.master.get_curve(df_raw, df_aT, 25), 1)
+    out["master curve"] = time.perf_counter() - t
+    t = time.perf_counter()
+    pyvisco.prony.fit(pyvisco.prony.discretize(df_master, "round"), df_master, opt=True)
+    out["Prony fit"] = time.perf_counter() - t
+    out["total"] = sum(out.values())
+    return out
+
+
+def report(label, runs):
+    print(label)
+    for k in runs[0]:
+        print(f"  {k:28s} median {statistics.median(r[k] for r in runs):7.3f} s  (min {min(r[k] for r in runs):.3f})")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--repeat", type=int, default=5)
@@ -49,9 +79,16 @@ def main():
     t = time.perf_counter()
     first, pf = steps()
     print(f"first pass (with compilation): {time.perf_counter() - t:.2f} s; Prony {pf.n_terms} terms, rms {pf.rms:.4f}")
-    runs = [steps()[0] for _ in range(args.repeat)]
-    for k in runs[0]:
-        print(f"  {k:28s} median {statistics.median(r[k] for r in runs):7.3f} s  (min {min(r[k] for r in runs):.3f})")
+    report("jaxroll", [steps()[0] for _ in range(args.repeat)])
+    try:
+        import pyvisco
+    except ImportError:
+        print("pyvisco not importable (pip install '.[peer]'): its side is not measured")
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            pyvisco_steps(pyvisco)  # warm-up
+            report(f"pyvisco {getattr(pyvisco, '__version__', '')}", [pyvisco_steps(pyvisco) for _ in range(args.repeat)])
     print(f"numpy {np.__version__}")
 
 
