@@ -39,7 +39,7 @@ from .materials import fit_prony, fit_shift_factors, fit_wlf, load_material, mas
 from .identify.fit import DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material
 
 # --- subpackages and modules reachable as attributes ---------------------------------------
-from . import apps, contact, datasets, engines, grids, identify, io, materials, methods, reference  # noqa: E402
+from . import apps, contact, conveyor, datasets, engines, grids, identify, io, materials, methods, reference  # noqa: E402
 
 #: the package version (the one source: pyproject.toml reads it)
 __version__ = "0.1.0"
@@ -58,5 +58,5 @@ __all__ = [
     "load_material", "fit_material", "RollingData", "DMAData", "FitResult",
     "DataWarning", "IdentifiabilityWarning", "MisfitWarning",
     # subpackages
-    "apps", "contact", "datasets", "engines", "grids", "identify", "io", "materials", "methods", "reference",
+    "apps", "contact", "conveyor", "datasets", "engines", "grids", "identify", "io", "materials", "methods", "reference",
 ]
