@@ -57,6 +57,7 @@ __all__ = [
     "surface_compliance",
     "static_compliance",
     "is_quasistatic",
+    "single_layer",
     "shear_wave_speed",
     "transfer_incompressible",
     "transfer_compressible",
@@ -304,6 +305,12 @@ def _static_t1_jvp(nu, primals, tangents):
     finite = jnp.isfinite(H)
     jac_H = jnp.where(finite, (out + q * jac_q) / where_safe(finite, H, 1.0), 0.0)
     return out, jac_q * dq + jac_H * dH
+
+
+def single_layer(layer) -> Layer:
+    """``layer`` itself, or a :class:`~jaxroll.engines.stack.Stack`'s equivalent layer (the
+    single-layer formulas of contact sizes, pressure models and grid rules)."""
+    return layer if isinstance(layer, Layer) else layer.equivalent_layer()
 
 
 def is_quasistatic(layer: Layer) -> bool:

@@ -179,6 +179,11 @@ class Stack(eqx.Module):
             return h
         return jnp.where(relaxed_modulus(self.base.material) >= 100.0 * g_top, h, jnp.inf)
 
+    def equivalent_layer(self) -> Layer:
+        """The :class:`~jaxroll.engines.layer.Layer` (:attr:`H`, :attr:`rho`, :attr:`nu`) of the
+        single-layer heuristics, with :attr:`material`."""
+        return Layer(H=self.H, rho=self.rho, nu=self.nu)
+
     @property
     def thickness(self) -> jax.Array:
         """Total thickness of the plies [m]."""
