@@ -209,7 +209,7 @@ class Stack(eqx.Module):
 # --------------------------------------------------------------------------------------
 # the ply propagator
 
-_N_SERIES = 16
+_N_SERIES = 12
 
 
 def _scaled_cosh(z, m_a):
@@ -221,14 +221,30 @@ def _scaled_sinh(z, m_a):
     return 0.5 * (jnp.exp(z - m_a) - jnp.exp(-z - m_a))
 
 
+def _coefficients_static(a):
+    """``(alpha, beta, gamma, delta) e^{-a}`` of ``expm(A a)`` at ``eps = 0`` (``s = 1``), real:
+    ``gamma = a sinh(a)/2``, ``delta = (a cosh a - sinh a)/2`` (series for ``a <= 1``)."""
+    e2 = jnp.exp(-2.0 * a)
+    ch, sh = 0.5 * (1.0 + e2), -0.5 * jnp.expm1(-2.0 * a)
+    gamma = 0.5 * a * sh
+    small = a <= 1.0
+    a_s = where_safe(small, a, 0.5)
+    a2 = a_s * a_s
+    term, d_ser = a_s, jnp.zeros_like(a_s)
+    for k in range(1, _N_SERIES):  # delta = sum_k k a^{2k+1}/(2k+1)!
+        term = term * a2 / ((2 * k) * (2 * k + 1))
+        d_ser = d_ser + k * term
+    delta = jnp.where(small, d_ser * jnp.exp(-a_s), 0.5 * (a * ch - sh))
+    return ch - gamma, sh - delta, gamma, delta
+
+
 def _coefficients(a, eps):
     """``(alpha, beta, gamma, delta) e^{-a m}`` of ``expm(A a)`` (module docstring), complex,
     for real ``a >= 0`` (capped) and complex ``eps``."""
     a_c = _c(a)
     mu = 1.0 - eps
     s = jnp.sqrt(mu)
-    m_a = a_c * jnp.maximum(1.0, jnp.real(s))
-    m_a = _c(jnp.real(m_a))
+    m_a = _c(a * jnp.maximum(1.0, jnp.real(s)))
     ch, sh = _scaled_cosh(a_c, m_a), _scaled_sinh(a_c, m_a)
 
     # (i) Taylor series in a (a <= 1): gamma = sum a^2k/(2k)! h_{k-1}, delta = sum a^{2k+1}/(2k+1)! h_{k-1}
@@ -243,14 +259,13 @@ def _coefficients(a, eps):
         term = term * a2 / ((2 * k - 1) * (2 * k))
         g_ser = g_ser + term * h
         d_ser = d_ser + term * a_s / (2 * k + 1) * h
-    scale_s = jnp.exp(-where_safe(small, m_a, 0.5))
+    scale_s = jnp.exp(-jnp.where(small, m_a, 0.5))
     g_ser, d_ser = g_ser * scale_s, d_ser * scale_s
 
     # (ii) near-degenerate: |y| < 1/2, y = (s - 1) a/2, through sinh(y)/y
     y = (s - 1.0) * a_c / 2.0
     near = jnp.abs(y) < 0.5
-    y_n = jnp.where(near, y, 0.1)
-    shc = 1.0 + _sinhc_minus_one(y_n)
+    shc = 1.0 + _sinhc_minus_one(jnp.where(near, y, 0.1))
     w = (s + 1.0) * a_c / 2.0
     g_near = a_c * _scaled_sinh(w, m_a) / (s + 1.0) * shc
     d_near = (a_c * _scaled_cosh(w, m_a) * shc - sh) / (s * (s + 1.0))
@@ -266,12 +281,59 @@ def _coefficients(a, eps):
     return ch - gamma, sh - delta, gamma, delta
 
 
+# 4x4 matrices as nested lists whose entries are Python floats (0.0 skipped) or arrays: the
+# products unroll into elementwise arithmetic that XLA fuses (batched 4x4 dots are slow on CPU)
+
+def _is_zero(x):
+    return isinstance(x, float) and x == 0.0
+
+
+def _add(x, y):
+    return y if _is_zero(x) else x if _is_zero(y) else x + y
+
+
+def _mul(x, y):
+    return 0.0 if _is_zero(x) or _is_zero(y) else x * y
+
+
+def _matmul(X, Y):
+    n, m, k = len(X), len(Y[0]), len(Y)
+    out = []
+    for i in range(n):
+        row = []
+        for j in range(m):
+            acc = 0.0
+            for t in range(k):
+                acc = _add(acc, _mul(X[i][t], Y[t][j]))
+            row.append(acc)
+        out.append(row)
+    return out
+
+
 def _state_matrix(nu, eps):
-    """``A`` of the module docstring, shape ``eps.shape + (4, 4)``."""
+    """``A`` of the module docstring (``eps``: an array, or the float 0.0)."""
     c1, c2, c3 = nu / (1.0 - nu), (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu)), 2.0 / (1.0 - nu)
-    z, one = jnp.zeros_like(eps), jnp.ones_like(eps)
-    rows = [[z, -one, one, z], [c1 * one, z, z, c2 * one], [c3 - eps, z, z, -c1 * one], [z, -eps, one, z]]
-    return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
+    return [[0.0, -1.0, 1.0, 0.0], [c1, 0.0, 0.0, c2], [c3 - eps, 0.0, 0.0, -c1], [0.0, -eps if not _is_zero(eps)
+                                                                                   else 0.0, 1.0, 0.0]]
+
+
+def _propagator(a, nu, eps):
+    """``expm(A a)`` scaled (module docstring) as a nested 4x4 list; ``eps = 0.0`` (a Python
+    float): the real quasi-static propagator."""
+    if _is_zero(eps):
+        coef = _coefficients_static(a)
+        A = np.array(_state_matrix(nu, 0.0))
+        powers = [np.eye(4), A, A @ A, A @ A @ A]
+        return [[sum(float(pw[i, j]) * c for pw, c in zip(powers, coef) if pw[i, j] != 0.0) for j in range(4)]
+                for i in range(4)]
+    coef = _coefficients(a, eps)
+    A = _state_matrix(nu, eps)
+    A2 = _matmul(A, A)
+    A3 = _matmul(A2, A)
+    eye = [[1.0 if i == j else 0.0 for j in range(4)] for i in range(4)]
+    return [[_add(_add(_mul(coef[0], eye[i][j]), _mul(coef[1], A[i][j])), _add(_mul(coef[2], A2[i][j]),
+                                                                                 _mul(coef[3], A3[i][j])))
+             for j in range(4)] for i in range(4)]
 
 
 def ply_propagator(a, nu, eps):
@@ -283,24 +345,25 @@ def ply_propagator(a, nu, eps):
         eps: ``rho V^2 q_x^2/(G_m q^2)`` [-], complex.
     """
     a, eps = jnp.broadcast_arrays(as_float(a), _c(eps))
-    al, be, ga, de = _coefficients(a, eps)
-    A = _state_matrix(nu, eps)
-    A2 = A @ A
-    A3 = A2 @ A
-    eye = jnp.eye(4, dtype=A.dtype)
-    return al[..., None, None] * eye + be[..., None, None] * A + ga[..., None, None] * A2 + de[..., None, None] * A3
-
-
-def _inv2(M):
-    det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
-    adj = jnp.stack([jnp.stack([M[..., 1, 1], -M[..., 0, 1]], -1), jnp.stack([-M[..., 1, 0], M[..., 0, 0]], -1)], -2)
-    return adj / det[..., None, None]
+    P = _propagator(a, nu, eps)
+    return jnp.stack([jnp.stack([jnp.broadcast_to(_c(x), a.shape) for x in row], -1) for row in P], -2)
 
 
 def _through(P, C):
-    """``C~_top = (P11 - C P21)^{-1} (C P22 - P12)``."""
-    P11, P12, P21, P22 = P[..., :2, :2], P[..., :2, 2:], P[..., 2:, :2], P[..., 2:, 2:]
-    return _inv2(P11 - C @ P21) @ (C @ P22 - P12)
+    """``C~_top = (P11 - C P21)^{-1} (C P22 - P12)`` (2x2 nested lists; ``C = None``: rigid, 0)."""
+    P11 = [row[:2] for row in P[:2]]
+    P12 = [row[2:] for row in P[:2]]
+    P21 = [row[:2] for row in P[2:]]
+    P22 = [row[2:] for row in P[2:]]
+    if C is None:
+        M, N = P11, [[-x for x in row] for row in P12]
+    else:
+        CP21, CP22 = _matmul(C, P21), _matmul(C, P22)
+        M = [[P11[i][j] - CP21[i][j] for j in range(2)] for i in range(2)]
+        N = [[CP22[i][j] - P12[i][j] for j in range(2)] for i in range(2)]
+    inv_det = 1.0 / (M[0][0] * M[1][1] - M[0][1] * M[1][0])
+    Minv = [[M[1][1] * inv_det, -M[0][1] * inv_det], [-M[1][0] * inv_det, M[0][0] * inv_det]]
+    return _matmul(Minv, N)
 
 
 def _static_zero(rho) -> bool:
@@ -309,12 +372,12 @@ def _static_zero(rho) -> bool:
 
 def _eps(rho, V, qx, q2_safe, G):
     if _static_zero(rho):
-        return jnp.zeros(jnp.broadcast_shapes(jnp.shape(qx), jnp.shape(G)), jnp.complex128)
+        return 0.0
     return _c(rho * V * V * qx * qx / q2_safe) / G
 
 
 def _shear_speed_ok(V, rho, material):
-    if isinstance(rho, float) and rho == 0.0:
+    if _static_zero(rho):
         return V
     c_s = jnp.where(rho > 0, jnp.sqrt(relaxed_modulus(material) / where_safe(rho > 0, rho, 1.0)), jnp.inf)
     return eqx.error_if(V, jnp.abs(V) >= c_s,
@@ -349,21 +412,29 @@ def stack_compliance(stack: Stack, qx, qy, V) -> jax.Array:
     for material, rho, nu, H in reversed(media):
         G = jnp.conj(complex_modulus(material, qx * V))
         eps = _eps(rho, V, qx, q2_safe, G)
-        # cap: the plies below couple through e^{-2 a min(1, Re s)} <= e^{-2 A_CAP}
-        a_cap = A_CAP / jnp.minimum(1.0, jnp.real(jnp.sqrt(1.0 - eps)))
-        a = a_cap if H is None else jnp.minimum(q * H, a_cap)
-        # with inertia the modes e^{a} and e^{s a} grow at different rates: N_SUB sub-plies keep
-        # the slower one above round-off in the scaled propagator (thin plies: one step, exact)
-        n_sub = 1 if _static_zero(rho) else N_SUB
-        split = a > 4.0
-        P = ply_propagator(jnp.where(split, a / n_sub, a), nu, eps)
-        if C is None:
-            C = jnp.zeros(P.shape[:-2] + (2, 2), jnp.complex128)
+        if C is not None:
+            ratio = G / G_below
+            C = [[x * ratio for x in row] for row in C]
+        if _is_zero(eps):  # quasi-static ply: a real propagator, s = 1
+            a = jnp.full(q.shape, A_CAP) if H is None else jnp.minimum(q * H, A_CAP)
+            C = _through(_propagator(a, nu, 0.0), C)
         else:
-            C = C * (G / G_below)[..., None, None]
-        C = _through(P, C)
-        for _ in range(n_sub - 1):
-            C = jnp.where(split[..., None, None], _through(P, C), C)
+            C = _through_inertial(C, q, H, nu, eps)
         G_below = G
-    T = -C[..., 1, 1] / (G_below * _c(q))
+    T = -C[1][1] / (G_below * _c(q))
     return jnp.where(q_pos, T, 0.0)
+
+
+def _through_inertial(C, q, H, nu, eps):
+    """A ply with inertia: its cap is ``A_CAP/min(1, Re s)`` (the plies below couple through
+    ``e^{-2 a Re s}``); where ``a > 4`` it is crossed in ``N_SUB`` sub-plies, since the modes
+    ``e^{a}`` and ``e^{s a}`` grow at different rates and one scale keeps only the faster."""
+    a_cap = A_CAP / jnp.minimum(1.0, jnp.real(jnp.sqrt(1.0 - eps)))
+    a = a_cap if H is None else jnp.minimum(q * H, a_cap)
+    split = a > 4.0
+    P = _propagator(jnp.where(split, a / N_SUB, a), nu, eps)
+    C = _through(P, C)
+    for _ in range(N_SUB - 1):
+        C_next = _through(P, C)
+        C = [[jnp.where(split, x, y) for x, y in zip(rn, rc)] for rn, rc in zip(C_next, C)]
+    return C
