@@ -22,6 +22,7 @@ from .materials.material import (
     complex_modulus,
 )
 from .engines.layer import Layer
+from .engines.stack import HalfSpace, Ply, Stack
 
 # --- methods, grids, results and the front doors ------------------------------------------
 from .grids import AutoGrid, FixedGrid
@@ -47,6 +48,7 @@ __version__ = "0.1.0"
 __all__ = [
     # materials and layer
     "StandardLinearSolid", "GeneralizedMaxwell", "WLF", "Arrhenius", "at_temperature", "complex_modulus", "Layer",
+    "Ply", "Stack", "HalfSpace",
     # methods and grids
     "Full", "Direct", "DirectElastic", "Slices", "AutoGrid", "FixedGrid",
     # front doors and results
