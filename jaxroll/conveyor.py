@@ -33,7 +33,7 @@ from .result import RESULTS, RollingResult
 from .rolling import rolling_resistance, rolling_resistance_grid
 
 __all__ = ["IndentationResult", "IdlerSetResult", "TroughLoads", "ConveyorMap", "indentation_resistance", "idler_set_resistance",
-           "trough_loads", "flight_power", "conveyor_map", "material_directions", "cover_thickness",
+           "trough_loads", "belt_stack", "flight_power", "conveyor_map", "material_directions", "cover_thickness",
            "with_cover_thickness", "G_STANDARD"]
 
 #: standard gravity [m/s^2]
@@ -67,15 +67,16 @@ class IndentationResult(eqx.Module):
         return self.rolling.result
 
 
-def indentation_resistance(material, layer, *, diameter, line_load, speed, contact_length=1.0, method=None,
+def indentation_resistance(material, layer=None, *, diameter, line_load, speed, contact_length=1.0, method=None,
                            throw=True) -> IndentationResult:
     """Indentation rolling resistance of a rigid idler roll on the belt's bottom cover.
 
     Args:
         material: the cover compound (any jaxroll material; ``jr.at_temperature(prony, wlf, T)``
-            for a temperature).
-        layer: the cover on the carcass, a :class:`jaxroll.Layer` (``H`` the cover thickness
-            [m]; ``nu``, ``rho``) or any layer-like object the front doors take.
+            for a temperature); or a :class:`jaxroll.Stack` alone (cover and carcass plies,
+            :func:`belt_stack`), which carries its materials.
+        layer: the cover on a rigid carcass, a :class:`jaxroll.Layer` (``H`` the cover
+            thickness [m]; ``nu``, ``rho``); ``None`` with a stack.
         diameter: idler diameter ``D`` [m] (radius ``D/2``).
         line_load: ``F_z'`` [N/m], the normal load per unit contact width.
         speed: belt speed ``V`` [m/s].
@@ -192,11 +193,13 @@ class IdlerSetResult:
         return bool(np.all(self.result == RESULTS.successful))
 
 
-def idler_set_resistance(material, layer, *, diameter, loads: TroughLoads, speed, method=None) -> IdlerSetResult:
+def idler_set_resistance(material, layer=None, *, diameter, loads: TroughLoads, speed,
+                         method=None) -> IdlerSetResult:
     """Indentation resistance of an idler set: every roll kind of ``loads`` (:func:`trough_loads`)
     at its line load, by the cylinder method (one compiled table over the roll kinds' loads);
     ``speed`` [m/s], ``diameter`` [m]. A roll whose point is not valid makes the set not valid
-    (its value is still summed: read ``result``)."""
+    (its value is still summed: read ``result``). ``material``, ``layer``: as in
+    :func:`indentation_resistance` (a :class:`jaxroll.Stack` alone for carcass plies)."""
     q = np.asarray(loads.line_load, float)
     order = np.argsort(q)
     res = rolling_resistance_grid(material, layer, radius=0.5 * float(diameter), loads=q[order],
@@ -207,6 +210,16 @@ def idler_set_resistance(material, layer, *, diameter, loads: TroughLoads, speed
     per_roll = per_width * loads.contact_length
     force = float(np.dot(loads.count, per_roll))
     return IdlerSetResult(loads, per_width, per_roll, force, force / loads.weight, force * float(speed), codes)
+
+
+def belt_stack(cover, H, carcass=(), base="rigid", *, nu=0.5, rho=0.0):
+    """The belt under the idler as a bonded stack: the bottom cover (``cover`` material,
+    thickness ``H`` [m], Poisson ratio ``nu``, density ``rho`` [kg/m^3]) in contact, then the
+    ``carcass`` plies (:class:`jaxroll.Ply`, top first), on ``base`` (``"rigid"`` or a
+    :class:`jaxroll.HalfSpace`): ``jr.Stack([jr.Ply(cover, H, nu, rho), *carcass], base)``."""
+    from .engines.stack import Ply, Stack
+
+    return Stack([Ply(cover, H, nu=nu, rho=rho), *carcass], base=base)
 
 
 def flight_power(force_per_idler, n_idlers, speed):
@@ -305,6 +318,13 @@ def conveyor_map(material, shift, layer, *, diameter, line_loads, temperatures, 
         measured_temperatures, measured_frequencies: as in :func:`jaxroll.resistance_map`: points
             outside are computed but ``RESULTS.outside_measured_range``.
     """
+    from .engines.stack import Stack
+
+    if isinstance(material, Stack) or isinstance(layer, Stack):
+        raise NotImplementedError("conveyor_map over temperature takes a cover material and a jr.Layer; a jr.Stack "
+                                  "(carcass plies) needs every ply's material shifted to the temperature, which the "
+                                  "map engine (jaxroll.maps.map_points) does not do yet: evaluate stacks point by "
+                                  "point with indentation_resistance(jr.conveyor.belt_stack(...), ...)")
     T, V, q = (np.asarray(x, float).ravel() for x in (temperatures, speeds, line_loads))
     directions = material_directions(material) if directions is None else dict(directions)
     Tp, Vp, qp = (a.ravel() for a in np.meshgrid(T, V, q, indexing="ij"))

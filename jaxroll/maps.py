@@ -237,8 +237,9 @@ def _cover_path(layer):
 
     if isinstance(layer, Layer):
         return lambda l: l.H
-    raise NotImplementedError(f"the cover thickness of a {type(layer).__name__} is not known to the maps: they take "
-                              f"a jr.Layer (bonded ply stacks, jr.Stack, are not part of this version)")
+    raise NotImplementedError(f"the maps take a material and a jr.Layer, not a {type(layer).__name__}: a jr.Stack "
+                              f"needs every ply's material shifted to the temperature, which the map engine does not "
+                              f"do yet")
 
 
 def _reduced(method, layer) -> bool:

@@ -13,6 +13,7 @@ import warnings
 
 import numpy as np
 import pytest
+from jax.dtypes import TypePromotionError
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
@@ -251,3 +252,29 @@ def test_map_values_and_design_derivatives_against_central_differences():
     solver tolerance 1e-10 over the step 1e-4, and the implicit derivative of the contact set)."""
     m = _check_map(GRID, full, 1e-6, 1e-4)
     assert m.valid.all()
+
+
+@pytest.mark.xfail(raises=TypePromotionError, strict=True,
+                   reason="jr.engines.stack.stack_compliance multiplies float64 by complex128 (x * ratio), which "
+                          "strict dtype promotion (the suite's) refuses; with standard promotion this test passes "
+                          "(split 1e-16 from the single cover)")
+def test_carcass_plies_pass_through_as_a_stack():
+    """Carcass plies: a belt_stack whose carcass ply is the cover compound equals the single cover
+    of the summed thickness (the stack's identity, 1e-10 in R_r; the direct method: plumbing),
+    and a stiff carcass lowers the resistance."""
+    cover, D, V, q = jr.StandardLinearSolid(3e6, 2e-5, 1.0), 0.159, 4.0, 2e3
+    kw = dict(diameter=D, line_load=q, speed=V, contact_length=0.5, method="direct")
+    single = conveyor.indentation_resistance(cover, jr.Layer(0.008), **kw)
+    split = conveyor.indentation_resistance(conveyor.belt_stack(cover, 0.005, [jr.Ply(cover, 0.003)]), **kw)
+    assert float(split.per_idler) == pytest.approx(float(single.per_idler), rel=1e-10)
+    stiff = jr.StandardLinearSolid(3e8, 2e-5, 0.01)
+    on_carcass = conveyor.indentation_resistance(conveyor.belt_stack(cover, 0.005, [jr.Ply(stiff, 0.003)]), **kw)
+    assert float(on_carcass.per_width) < float(single.per_width)
+
+
+def test_the_temperature_map_refuses_a_stack_naming_what_is_missing():
+    cover, stiff = jr.StandardLinearSolid(3e6, 2e-5, 1.0), jr.StandardLinearSolid(3e8, 2e-5, 0.01)
+    D, V, q = 0.159, 4.0, 2e3
+    with pytest.raises(NotImplementedError, match="every ply's material"):
+        conveyor.conveyor_map(conveyor.belt_stack(cover, 0.005, [jr.Ply(stiff, 0.003)]), WLF, None, diameter=D,
+                              line_loads=[q], temperatures=[293.15], speeds=[V])
