@@ -13,7 +13,7 @@ import warnings
 
 import numpy as np
 import pytest
-from jax.dtypes import TypePromotionError
+from jax._src.dtypes import TypePromotionError  # not re-exported publicly in jax 0.9
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
