@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .map import _material_info
+from .map import shifted_material
 from .options import count, floats, method_args, method_from_args, method_name, nonnegative, poisson, positive, progress_args, say, warn_invalid
 
 
@@ -58,11 +58,7 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    mat, shift = jr.load_material(args.material)
-    if shift is None:
-        raise ValueError(f"--material {args.material}: no shift law (WLF or Arrhenius) in the file; temperatures "
-                         f"need one (jaxroll material writes the fitted WLF law)")
-    info = _material_info(args.material)
+    mat, shift, info = shifted_material(args.material)
     loads, trough = _loads(args)
     temperatures = np.asarray(args.temperatures if args.temperatures else [float(shift.T_ref)], float)
     layer = jr.Layer(H=args.H, rho=args.rho, nu=args.nu)
