@@ -43,6 +43,8 @@ Checked against the composed 50-digit ``expm`` of [ZG] eq. 22 (tests/test_stack.
 
 from __future__ import annotations
 
+import operator
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -251,14 +253,17 @@ def _coefficients(a, eps):
     small = a <= 1.0
     a_s = _c(where_safe(small, a, 0.5))
     a2 = a_s * a_s
-    h = jnp.ones_like(mu)
     term = a2 / 2.0  # a^{2k}/(2k)! at k = 1
-    g_ser, d_ser = term * h, term * a_s / 3.0 * h
-    for k in range(2, _N_SERIES):
+
+    def series_step(k, carry):  # a loop, not unrolled: compile time
+        term, h, g, d = carry
+        kf = k.astype(jnp.complex128)
         h = 1.0 + mu * h
-        term = term * a2 / ((2 * k - 1) * (2 * k))
-        g_ser = g_ser + term * h
-        d_ser = d_ser + term * a_s / (2 * k + 1) * h
+        term = term * a2 / ((2 * kf - 1) * (2 * kf))
+        return term, h, g + term * h, d + term * a_s / (2 * kf + 1) * h
+
+    h0 = jnp.ones_like(mu)
+    _, _, g_ser, d_ser = jax.lax.fori_loop(2, _N_SERIES, series_step, (term, h0, term * h0, term * a_s / 3.0 * h0))
     scale_s = jnp.exp(-jnp.where(small, m_a, 0.5))
     g_ser, d_ser = g_ser * scale_s, d_ser * scale_s
 
@@ -288,12 +293,22 @@ def _is_zero(x):
     return isinstance(x, float) and x == 0.0
 
 
+def _same(x, y):
+    """``x, y`` with a real array made complex next to a complex one (strict promotion)."""
+    cx, cy = jnp.iscomplexobj(x), jnp.iscomplexobj(y)
+    if cx and not cy and not isinstance(y, float):
+        y = _c(y)
+    elif cy and not cx and not isinstance(x, float):
+        x = _c(x)
+    return x, y
+
+
 def _add(x, y):
-    return y if _is_zero(x) else x if _is_zero(y) else x + y
+    return y if _is_zero(x) else x if _is_zero(y) else operator.add(*_same(x, y))
 
 
 def _mul(x, y):
-    return 0.0 if _is_zero(x) or _is_zero(y) else x * y
+    return 0.0 if _is_zero(x) or _is_zero(y) else operator.mul(*_same(x, y))
 
 
 def _matmul(X, Y):
@@ -359,8 +374,8 @@ def _through(P, C):
         M, N = P11, [[-x for x in row] for row in P12]
     else:
         CP21, CP22 = _matmul(C, P21), _matmul(C, P22)
-        M = [[P11[i][j] - CP21[i][j] for j in range(2)] for i in range(2)]
-        N = [[CP22[i][j] - P12[i][j] for j in range(2)] for i in range(2)]
+        M = [[_add(P11[i][j], _mul(-1.0, CP21[i][j])) for j in range(2)] for i in range(2)]
+        N = [[_add(CP22[i][j], _mul(-1.0, P12[i][j])) for j in range(2)] for i in range(2)]
     inv_det = 1.0 / (M[0][0] * M[1][1] - M[0][1] * M[1][0])
     Minv = [[M[1][1] * inv_det, -M[0][1] * inv_det], [-M[1][0] * inv_det, M[0][0] * inv_det]]
     return _matmul(Minv, N)
@@ -414,14 +429,14 @@ def stack_compliance(stack: Stack, qx, qy, V) -> jax.Array:
         eps = _eps(rho, V, qx, q2_safe, G)
         if C is not None:
             ratio = G / G_below
-            C = [[x * ratio for x in row] for row in C]
+            C = [[_mul(x, ratio) for x in row] for row in C]
         if _is_zero(eps):  # quasi-static ply: a real propagator, s = 1
             a = jnp.full(q.shape, A_CAP) if H is None else jnp.minimum(q * H, A_CAP)
             C = _through(_propagator(a, nu, 0.0), C)
         else:
             C = _through_inertial(C, q, H, nu, eps)
         G_below = G
-    T = -C[1][1] / (G_below * _c(q))
+    T = -_c(C[1][1]) / (G_below * _c(q))
     return jnp.where(q_pos, T, 0.0)
 
 
@@ -434,7 +449,9 @@ def _through_inertial(C, q, H, nu, eps):
     split = a > 4.0
     P = _propagator(jnp.where(split, a / N_SUB, a), nu, eps)
     C = _through(P, C)
-    for _ in range(N_SUB - 1):
+
+    def step(_, C):  # a loop, not unrolled: compile time
         C_next = _through(P, C)
-        C = [[jnp.where(split, x, y) for x, y in zip(rn, rc)] for rn, rc in zip(C_next, C)]
-    return C
+        return [[jnp.where(split, x, y) for x, y in zip(rn, rc)] for rn, rc in zip(C_next, C)]
+
+    return jax.lax.fori_loop(0, N_SUB - 1, step, C)
