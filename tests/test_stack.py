@@ -190,3 +190,53 @@ def test_bad_stacks_are_rejected():
     st = jr.Stack([jr.Ply(M1, H=0.01)])
     with pytest.raises(ValueError, match="alone"):
         jr.rolling_resistance(M1, st, radius=0.02, load=100.0, speed=1.0)
+
+
+# --------------------------------------------------------------------------------------
+# the methods on a stack: two identical plies must reproduce the single layer's R_r
+
+H_SPLIT = (0.002, 0.003)  # plies of one material summing to the layer's H = 5 mm
+SPHERE_GRID = jr.FixedGrid(6e-4, 17, period=0.08, n_terms=80)
+LINE_GRID = jr.FixedGrid(2e-4, 80, period=0.1)
+METHODS = {  # name: (method, geometry, load); the default copies run always, the rest under -m slow
+    "full2d": (jr.Full(grid=jr.FixedGrid(2e-4, 80)), "cylinder", 5000.0),
+    "direct-cylinder": (jr.Direct(), "cylinder", 5000.0),
+    "full2d-periodic": (jr.Full(grid=LINE_GRID), "cylinder", 5000.0),
+    "full3d": (jr.Full(grid=jr.FixedGrid(6e-4, 17)), "sphere", 150.0),
+    "full3d-periodic": (jr.Full(grid=SPHERE_GRID), "sphere", 150.0),
+    "direct-sphere": (jr.Direct(), "sphere", 150.0),
+    "direct-periodic": (jr.Direct(period=0.08, n_terms=60), "sphere", 150.0),
+    "direct-cylinder-periodic": (jr.Direct(period=0.1, n_terms=200), "cylinder", 5000.0),
+    "SP": (jr.Slices(algorithm="SP", grid=LINE_GRID), "sphere", 150.0),
+    "PD": (jr.Slices(algorithm="PD", grid=LINE_GRID), "sphere", 150.0),
+    "PP": (jr.Slices(algorithm="PP", grid=LINE_GRID), "sphere", 150.0),
+}
+FAST = ("full2d", "direct-cylinder")
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # flags compared below, not asserted
+@pytest.mark.parametrize("name", [n if n in FAST else pytest.param(n, marks=pytest.mark.slow) for n in METHODS])
+def test_identical_plies_give_the_single_layer_rolling_resistance(name):
+    method, geometry, load = METHODS[name]
+    kw = dict(radius=0.02, load=load, speed=0.01, geometry=geometry, method=method, throw=False)
+    ref = jr.rolling_resistance(M1, jr.Layer(sum(H_SPLIT)), **kw)
+    val = jr.rolling_resistance(jr.Stack([jr.Ply(M1, H=h) for h in H_SPLIT]), **kw)
+    # the compliances agree to ~1e-14 (above); every other input is the same layer's
+    assert abs(float(val.value) - float(ref.value)) <= 1e-10 * abs(float(ref.value))
+    assert int(val.result) == int(ref.result)
+
+
+def test_rolling_resistance_gradient_in_ply_thickness_matches_central_differences():
+    """d R_r/d H_cover of a cover on a carcass (full 2D, fixed grid) under jax.grad, against a
+    central difference (h = 1e-6 relative: the contact solve's tolerance 1e-10 sets ~1e-4)."""
+    method = jr.Full(grid=jr.FixedGrid(2e-4, 80))
+
+    def rr(h):
+        st = jr.Stack([jr.Ply(M1, H=h), jr.Ply(M2, H=0.002, nu=0.45)])
+        return jr.rolling_resistance(st, radius=0.02, load=5000.0, speed=0.01, geometry="cylinder",
+                                     method=method, throw=False).value
+
+    h0 = 0.004
+    g = float(jax.grad(rr)(h0))
+    fd = (float(rr(h0 * (1 + 1e-6))) - float(rr(h0 * (1 - 1e-6)))) / (2e-6 * h0)
+    assert abs(g - fd) <= 1e-4 * abs(fd)
