@@ -14,8 +14,10 @@ Usage: python benchmarks/bench_stack.py [--quick] [--repeats 5] [--methods full3
 import argparse
 import os
 import platform
+import statistics
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -39,16 +41,29 @@ CASES = {  # name: (method, geometry, load)
 }
 
 
-def per_point(method, geometry, load, model, repeats):
-    speeds = iter(np.geomspace(0.01, 0.02, 2 * repeats + 4))
-    args = (COVER, LAYER) if model == "layer" else (STACK, None)
-
-    def call():
-        return jr.rolling_resistance(*args, radius=R, load=load, speed=next(speeds), geometry=geometry,
-                                     method=method, throw=False).value
-
-    first, median, value = timed(call, repeat=repeats)
-    return first - median, median, float(value)
+def per_point(method, geometry, load, repeats):
+    """Compile (first call minus the warm median) and warm median of the layer and of the stack,
+    their warm calls interleaved (the machine's load drifts alike for both)."""
+    speeds = iter(np.geomspace(0.01, 0.02, 4 * repeats + 8))
+    out = {}
+    calls = {}
+    for model, args in (("layer", (COVER, LAYER)), ("stack", (STACK, None))):
+        def call(args=args):
+            return jr.rolling_resistance(*args, radius=R, load=load, speed=next(speeds), geometry=geometry,
+                                         method=method, throw=False).value
+        calls[model] = call
+        out[model] = [timed(call, repeat=1)[0]]  # first call: compile + run
+    runs = {"layer": [], "stack": []}
+    for _ in range(repeats):
+        for model in ("layer", "stack"):
+            _, times, value = timed(calls[model], repeat=1, all_runs=True)
+            runs[model] += times
+            out[model + "_value"] = float(value)
+    res = {}
+    for model in ("layer", "stack"):
+        median = statistics.median(runs[model])
+        res[model] = (out[model][0] - median, median, out[model + "_value"])
+    return res
 
 
 def compliance(repeats):
@@ -65,10 +80,11 @@ def compliance(repeats):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="2 repeats")
-    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--repeats", type=int, default=9)
     ap.add_argument("--methods", default=",".join(CASES))
     args = ap.parse_args()
     repeats = 2 if args.quick else args.repeats
+    print(f"# jax {jax.__version__}, {repeats} interleaved warm calls per model")
     print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
     c = compliance(repeats)
     ratio = c["stack"][1] / c["layer"][1]
@@ -80,8 +96,8 @@ def main():
         method, geometry, load = CASES[name]
         method = jr.methods.as_method(method).resolve(COVER, LAYER, radius=R, loads=[load], speeds=[0.01, 0.02],
                                                       geometry=geometry)
-        cl, ml, vl = per_point(method, geometry, load, "layer", repeats)
-        cs, ms, vs = per_point(method, geometry, load, "stack", repeats)
+        r = per_point(method, geometry, load, repeats)
+        (cl, ml, vl), (cs, ms, vs) = r["layer"], r["stack"]
         print(f"| {name} | {ml:.4f} | {ms:.4f} | {ms / ml:.2f} | {cl:.1f} / {cs:.1f} | {vl:.4g} / {vs:.4g} |",
               flush=True)
         summary(f"bench_stack {name}", ms, cs, baseline=ml, ratio=ms / ml)
