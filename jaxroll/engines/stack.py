@@ -58,7 +58,7 @@ from .._numerics import as_float, to_complex as _c, where_safe
 from ..materials.material import AbstractMaterial, _leaf, complex_modulus, relaxed_modulus
 from .layer import Layer, _density, _sinhc_minus_one
 
-__all__ = ["Ply", "HalfSpace", "Stack", "stack_compliance", "ply_propagator", "A_CAP"]
+__all__ = ["Ply", "HalfSpace", "Stack", "stack_compliance", "ply_propagator", "models", "A_CAP"]
 
 #: cap on each ply's ``q H min(1, Re s)``: beyond it the plies below matter to ``e^{-2 A_CAP}``
 A_CAP = 20.0
@@ -210,6 +210,22 @@ class Stack(eqx.Module):
             lay = p.layer.checked()
             plies.append(eqx.tree_at(lambda x: (x.H, x.rho), p, (lay.H, lay.rho)))
         return eqx.tree_at(lambda s: s.plies, self, tuple(plies))
+
+
+def models(material, layer):
+    """``(material, layer)`` as the methods take them: a :class:`~jaxroll.Stack` given alone
+    (``layer=None``) becomes ``(stack.material, stack)`` (its top ply's material for the
+    single-layer heuristics; the compliance is the stack's)."""
+    if isinstance(layer, Stack):
+        raise ValueError("a jr.Stack carries its plies' materials: give it alone, "
+                         "rolling_resistance(stack, radius=..., ...), not with a material")
+    if isinstance(material, Stack):
+        if layer is not None:
+            raise ValueError(f"a jr.Stack replaces both the material and the layer; got a layer too ({layer!r})")
+        return material.material, material
+    if layer is None:
+        raise ValueError("give a material and a jr.Layer, or a jr.Stack alone")
+    return material, layer
 
 
 # --------------------------------------------------------------------------------------
