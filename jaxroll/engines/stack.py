@@ -384,20 +384,27 @@ def ply_propagator(a, nu, eps):
     return jnp.stack([jnp.stack([jnp.broadcast_to(_c(x), a.shape) for x in row], -1) for row in P], -2)
 
 
-def _through(P, C):
-    """``C~_top = (P11 - C P21)^{-1} (C P22 - P12)`` (2x2 nested lists; ``C = None``: rigid, 0)."""
+def _through(P, C, factor=None, zz_only=False):
+    """``C~_top = (P11 - C' P21)^{-1} (C' P22 - P12)``, ``C' = factor C`` (2x2 nested lists;
+    ``C = None``: rigid, 0). The products ``C P21``, ``C P22`` are formed before the factor (the
+    interface's modulus ratio), so on tensor grids they stay on the smaller shape of ``C`` and
+    ``P``. ``zz_only``: only the entry ``C~_top,zz`` (the surface)."""
     P11 = [row[:2] for row in P[:2]]
     P12 = [row[2:] for row in P[:2]]
     P21 = [row[:2] for row in P[2:]]
     P22 = [row[2:] for row in P[2:]]
     if C is None:
-        M, N = P11, [[-x for x in row] for row in P12]
+        M, N = P11, [[_mul(-1.0, x) for x in row] for row in P12]
     else:
+        scale = (lambda x: x) if factor is None else (lambda x: _mul(factor, x))  # noqa: E731
         CP21, CP22 = _matmul(C, P21), _matmul(C, P22)
-        M = [[_add(P11[i][j], _mul(-1.0, CP21[i][j])) for j in range(2)] for i in range(2)]
-        N = [[_add(CP22[i][j], _mul(-1.0, P12[i][j])) for j in range(2)] for i in range(2)]
-    inv_det = 1.0 / (M[0][0] * M[1][1] - M[0][1] * M[1][0])
-    Minv = [[M[1][1] * inv_det, -M[0][1] * inv_det], [-M[1][0] * inv_det, M[0][0] * inv_det]]
+        M = [[_add(P11[i][j], _mul(-1.0, scale(CP21[i][j]))) for j in range(2)] for i in range(2)]
+        N = [[_add(scale(CP22[i][j]), _mul(-1.0, P12[i][j])) for j in range(2)] for i in range(2)]
+    det = _add(_mul(M[0][0], M[1][1]), _mul(-1.0, _mul(M[0][1], M[1][0])))
+    if zz_only:
+        return _add(_mul(M[0][0], N[1][1]), _mul(-1.0, _mul(M[1][0], N[0][1]))) / det
+    inv_det = 1.0 / det
+    Minv = [[_mul(M[1][1], inv_det), _mul(-inv_det, M[0][1])], [_mul(-inv_det, M[1][0]), _mul(M[0][0], inv_det)]]
     return _matmul(Minv, N)
 
 
@@ -448,20 +455,22 @@ def stack_compliance(stack: Stack, qx, qy, V, q=None) -> jax.Array:
     q2_safe = where_safe(q_pos, q2, 1.0)
     q = jnp.sqrt(q2_safe)
     C, G_below = None, None
-    for material, rho, nu, H in reversed(media):
+    for k, (material, rho, nu, H) in enumerate(reversed(media)):
+        top = k == len(media) - 1
         G = jnp.conj(complex_modulus(material, qx * V))
         eps = _eps(rho, V, qx, q2_safe, G)
-        if C is not None:
-            ratio = G / G_below
-            C = [[_mul(x, ratio) for x in row] for row in C]
+        ratio = None if C is None else G / G_below
         if _is_zero(eps):  # quasi-static ply: a real propagator, s = 1
             qq = q if q_small is None else q_small
             a = jnp.full(qq.shape, A_CAP) if H is None else jnp.minimum(qq * H, A_CAP)
-            C = _through(_propagator(a, nu, 0.0), C)
+            C = _through(_propagator(a, nu, 0.0), C, ratio, zz_only=top)
         else:
+            if ratio is not None:
+                C = [[_mul(x, ratio) for x in row] for row in C]
             C = _through_inertial(C, q, H, nu, eps)
+            C = C[1][1] if top else C
         G_below = G
-    T = -_c(C[1][1]) / (G_below * _c(q))
+    T = -_c(C) / (G_below * _c(q))
     return jnp.where(q_pos, T, 0.0)
 
 
