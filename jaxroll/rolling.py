@@ -29,7 +29,7 @@ import numpy as np
 
 from ._numerics import as_float, check_plausible, check_roller_values, input_checks, roller_inputs
 from .engines.layer import Layer
-from .engines.stack import Stack
+from .engines.stack import Stack, models
 from .materials.material import AbstractMaterial
 from .engines.contact_size import estimate_contact_size
 from .geometry import check_geometry
@@ -48,22 +48,6 @@ _AUTOGRID_TRACED = (
 
 def _traced(*trees) -> bool:
     return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(trees))
-
-
-def models(material, layer):
-    """``(material, layer)`` as the methods take them: a :class:`~jaxroll.Stack` given alone
-    (``layer=None``) becomes ``(stack.material, stack)`` (its top ply's material for the
-    single-layer heuristics; the compliance is the stack's)."""
-    if isinstance(layer, Stack):
-        raise ValueError("a jr.Stack carries its plies' materials: give it alone, "
-                         "rolling_resistance(stack, radius=..., ...), not with a material")
-    if isinstance(material, Stack):
-        if layer is not None:
-            raise ValueError(f"a jr.Stack replaces both the material and the layer; got a layer too ({layer!r})")
-        return material.material, material
-    if layer is None:
-        raise ValueError("give a material and a jr.Layer, or a jr.Stack alone")
-    return material, layer
 
 
 def _check_models(material, layer):

@@ -81,6 +81,7 @@ import numpy as np
 
 from .._numerics import as_float, check_input, roller_inputs, where_safe
 from .layer import Layer, single_layer, static_compliance, surface_compliance
+from .stack import stack_compliance
 from ..materials.material import complex_modulus, storage_modulus
 from .pressure import (
     PRESSURE_MODELS,
@@ -367,8 +368,9 @@ def _im_t_fast(layer, material, q, qx, qy, V):
         shape = jnp.broadcast_shapes(jnp.shape(q), jnp.shape(qx), jnp.shape(qy))
         return _im_t(layer, material, jnp.broadcast_to(qx, shape), jnp.broadcast_to(qy, shape), V)
 
-    if not isinstance(layer, Layer):  # a Stack: the plies' moduli do not factor out
-        return general(None)
+    if not isinstance(layer, Layer):  # a Stack: the plies' moduli do not factor out; its real
+        # propagators are evaluated on the shape of q only
+        return jnp.imag(stack_compliance(layer, qx, qy, V, q=q))
     rho = layer.rho
     if not isinstance(rho, jax.core.Tracer):
         return factorised(None) if bool(np.all(np.asarray(rho) == 0.0)) else general(None)
