@@ -13,7 +13,6 @@ import warnings
 
 import numpy as np
 import pytest
-from jax._src.dtypes import TypePromotionError  # not re-exported publicly in jax 0.9
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
@@ -254,10 +253,6 @@ def test_map_values_and_design_derivatives_against_central_differences():
     assert m.valid.all()
 
 
-@pytest.mark.xfail(raises=TypePromotionError, strict=True,
-                   reason="jr.engines.stack.stack_compliance multiplies float64 by complex128 (x * ratio), which "
-                          "strict dtype promotion (the suite's) refuses; with standard promotion this test passes "
-                          "(split 1e-16 from the single cover)")
 def test_carcass_plies_pass_through_as_a_stack():
     """Carcass plies: a belt_stack whose carcass ply is the cover compound equals the single cover
     of the summed thickness (the stack's identity, 1e-10 in R_r; the direct method: plumbing),
