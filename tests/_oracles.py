@@ -1,8 +1,12 @@
 """High-precision oracles shared by tests (mpmath): the 6x6 transfer matrices of [ZG] eq. 22
 (incompressible, with inertia, beta_y typo fixed) and of the compressible quasi-static layer.
-Independent of the library's closed forms: T = e1^T T12 T22^{-1} e1 with T(z) = expm(A H)."""
+Independent of the library's closed forms: T = e1^T T12 T22^{-1} e1 with T(z) = expm(A H).
+And the viscoelastic Winkler foundation under a rolling cylinder (:func:`winkler_sls`)."""
 
 import mpmath as mp
+import numpy as np
+from scipy.integrate import quad
+from scipy.optimize import brentq
 
 
 def _t_from_expm(A, H, dps):
@@ -114,3 +118,46 @@ def transfer_expm_stack(qx, qy, plies, V, base=None, base_depth=60.0):
                 T12[i, j] = E[i, 3 + j]
                 T22[i, j] = E[3 + i, 3 + j]
         return complex((T12 * mp.inverse(T22))[0, 0])
+
+
+def winkler_sls(P, R, H, G0, tau, f, nu, V):
+    r"""Rolling resistance per unit width [N/m] of a rigid cylinder (radius ``R``, line load
+    ``P`` [N/m], speed ``V``) on a one-dimensional Winkler foundation of a standard linear solid,
+    the classical model of the conveyor-belt indentation resistance (Jonkers 1980, "The
+    indentation rolling resistance of belt conveyors", Fördern und Heben 30; May, Morris and
+    Atack 1959, J. Appl. Phys. 30, 1713; Rudolphi and Reicks 2006, "Viscoelastic indentation
+    and resistance to motion of conveyor belts using a generalized Maxwell model of the backing
+    material"), written independently of the library (tests/test_conveyor.py,
+    benchmarks/conveyor_winkler.py).
+
+    A thin compressible layer on a rigid base tends to a bed of independent columns in uniaxial
+    strain, stiffness ``k = M/H`` with ``M = 2 G (1 - nu)/(1 - 2 nu)``. Each column follows the
+    SLS law ``p + (tau/(1+f)) dp/dt = k0 (u + tau du/dt)`` ([ZG] eq. 12 with ``k0 = M0/H``); in
+    the frame of the roller, which moves toward +x, ``d/dt = -V d/dx``. In contact (-b < x < a)
+    ``u = d - x^2/(2R)`` with ``d = a^2/(2R)`` (the column ahead is unloaded), so
+    ``p - c1 p' = k0 (u - c u')``, ``c = V tau``, ``c1 = c/(1+f)``, solved in closed form from
+    ``p(a) = 0``: ``p = pp(x) - pp(a) exp((x - a)/c1)`` with
+    ``pp = k0 [d - x^2/(2R) + c x/R + c1 (c - x)/R - c1^2/R]``. The rear edge ``-b`` is the first
+    zero of ``p`` behind the roller (the surface then recovers freely); ``a`` is found from the
+    load ``int p dx = P``; ``R_r = (1/R) int p x dx``."""
+    k0 = 2 * G0 * (1 - nu) / ((1 - 2 * nu) * H)
+    c, c1 = V * tau, V * tau / (1 + f)
+
+    def pressure(a):
+        d = a * a / (2 * R)
+        pp = lambda x: k0 * (d - x * x / (2 * R) + c * x / R + c1 * (c - x) / R - c1 * c1 / R)  # noqa: E731
+        return lambda x: pp(x) - pp(a) * np.exp((x - a) / c1)
+
+    def rear(a):
+        p = pressure(a)
+        xs = np.linspace(a, -3 * a - 10 * c, 20001)
+        i = int(np.argmax(p(xs[1:]) < 0)) + 1
+        return brentq(p, xs[i], xs[i - 1], xtol=1e-15 * a)
+
+    def load(a):
+        return quad(pressure(a), rear(a), a, epsabs=0, epsrel=1e-13, limit=200)[0]
+
+    a0 = (3 * P * R / (2 * k0)) ** (1 / 3)  # the elastic (relaxed) half-width
+    a = brentq(lambda a: load(a) - P, 0.2 * a0, 5 * a0, xtol=1e-15 * a0)
+    p = pressure(a)
+    return quad(lambda x: p(x) * x, rear(a), a, epsabs=0, epsrel=1e-13, limit=200)[0] / R
