@@ -22,6 +22,7 @@ from .materials.material import (
     complex_modulus,
 )
 from .engines.layer import Layer
+from .engines.stack import HalfSpace, Ply, Stack
 
 # --- methods, grids, results and the front doors ------------------------------------------
 from .grids import AutoGrid, FixedGrid
@@ -39,7 +40,7 @@ from .materials import fit_prony, fit_shift_factors, fit_wlf, load_material, mas
 from .identify.fit import DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material
 
 # --- subpackages and modules reachable as attributes ---------------------------------------
-from . import apps, contact, datasets, engines, grids, identify, io, materials, methods, reference  # noqa: E402
+from . import apps, contact, conveyor, datasets, engines, grids, identify, io, materials, methods, reference  # noqa: E402
 
 #: the package version (the one source: pyproject.toml reads it)
 __version__ = "0.1.0"
@@ -47,6 +48,7 @@ __version__ = "0.1.0"
 __all__ = [
     # materials and layer
     "StandardLinearSolid", "GeneralizedMaxwell", "WLF", "Arrhenius", "at_temperature", "complex_modulus", "Layer",
+    "Ply", "Stack", "HalfSpace",
     # methods and grids
     "Full", "Direct", "DirectElastic", "Slices", "AutoGrid", "FixedGrid",
     # front doors and results
@@ -58,5 +60,5 @@ __all__ = [
     "load_material", "fit_material", "RollingData", "DMAData", "FitResult",
     "DataWarning", "IdentifiabilityWarning", "MisfitWarning",
     # subpackages
-    "apps", "contact", "datasets", "engines", "grids", "identify", "io", "materials", "methods", "reference",
+    "apps", "contact", "conveyor", "datasets", "engines", "grids", "identify", "io", "materials", "methods", "reference",
 ]

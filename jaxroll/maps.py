@@ -112,54 +112,134 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
             ``RESULTS.outside_measured_range`` (the Prony series is extrapolated there).
             ``None``: not checked.
     """
+    T = np.asarray(temperatures, float)
+    V = np.asarray(speeds, float)
+    Tp, Vp = (a.ravel() for a in np.meshgrid(T, V, indexing="ij"))
+    out = map_points(material, shift, layer, radius=radius, loads=np.full(Tp.shape, float(load)), temperatures=Tp,
+                     speeds=Vp, geometry=geometry, method=method, measured_temperatures=measured_temperatures,
+                     measured_frequencies=measured_frequencies, where="resistance_map")
+    shape = (T.shape[0], V.shape[0])
+    return ResistanceMap(T, V, out.value.reshape(shape), out.valid.reshape(shape), out.dR_dT.reshape(shape),
+                         out.dR_dH.reshape(shape), out.seconds, out.result.reshape(shape))
+
+
+@dataclasses.dataclass(frozen=True)
+class MapPoints:
+    """Rolling resistance at ``n`` points ``(T, V, P)`` with its derivatives (:func:`map_points`).
+
+    Attributes:
+        value: ``R_r`` [N or N/m] per point; result: :data:`jaxroll.RESULTS` code; valid.
+        dR_dT [per K], dR_dH [per m]: derivatives at each point (forward mode).
+        dR_ddirection: ``(n_directions, n)``, the derivative along each material direction
+            (``d R_r / d s`` of ``material + s * direction`` at ``s = 0``).
+        contact_radius [m]: the solved contact radius or half-width; seconds: wall time per
+            point of the compiled program (compilation excluded).
+    """
+
+    value: np.ndarray
+    result: np.ndarray
+    valid: np.ndarray
+    dR_dT: np.ndarray
+    dR_dH: np.ndarray
+    dR_ddirection: np.ndarray
+    contact_radius: np.ndarray
+    seconds: float
+
+
+def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, geometry="sphere", method=None,
+               measured_temperatures=None, measured_frequencies=None, directions=(), where="map") -> MapPoints:
+    """The engine of :func:`resistance_map` and :func:`jaxroll.conveyor.conveyor_map`: ``R_r``
+    at the points ``(temperatures[i], speeds[i], loads[i])`` (1D arrays of one length, K, m/s,
+    N or N/m) of a temperature-shifted material on ``layer``, with ``dR_r/dT``, ``dR_r/dH``
+    (the thickness of the layer, or of the top ply of a layer-like object) and the derivative
+    along each of ``directions`` (pytrees shaped like ``material``: tangents of its parameters),
+    all in one compiled program; the points are solved in the order of the reduced speed
+    ``V a_T`` and then the load. ``measured_temperatures``/``measured_frequencies``: as in
+    :func:`resistance_map` (points outside are ``RESULTS.outside_measured_range``)."""
     import time
 
     from ._numerics import check_roller_values
-    from .grids import union
-    from .materials.material import at_temperature
-    from .methods import as_method, default_method
     from .result import RESULTS
 
-    T = jnp.asarray(np.asarray(temperatures, float))
-    V = jnp.asarray(np.asarray(speeds, float))
+    T, V, P = (np.asarray(x, float).ravel() for x in (temperatures, speeds, loads))
+    if not T.shape == V.shape == P.shape:
+        raise ValueError(f"temperatures, speeds and loads must have one length; got {T.size}, {V.size}, {P.size}")
     # the map's points are traced: the plausibility of its concrete inputs is checked here
-    check_plausible("resistance_map", radius=radius, H=layer.H, G0=material.relaxed_modulus(), speed=V)
-    check_roller_values(radius, load, V)
+    check_plausible(where, radius=radius, H=cover_thickness(layer), G0=material.relaxed_modulus(), speed=V)
+    check_roller_values(radius, P, V)
     material.checked(), layer.checked()
-    if not np.all(np.asarray(T) > 0):
+    if not np.all(T > 0):
         raise ValueError("temperatures must be positive [K]")
-    method = as_method(default_method(geometry) if method is None else method)
-    method.check_geometry(geometry)
-    if method.needs_resolution(geometry):  # one grid for the map: the union of the coldest and hottest
-        method = eqx.tree_at(lambda m: m.grid, method, union([
-            method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=[load], speeds=V,
-                           geometry=geometry).grid for Ti in (float(np.min(T)), float(np.max(T)))]))
-    method.check_memory(geometry)
-    Tp, Vp = (a.ravel() for a in jnp.meshgrid(T, V, indexing="ij"))
-    # solved in the order of the reduced speed V a_T: under time-temperature superposition the
-    # contact depends on T and V through it (up to the layer's inertia), so neighbours are alike
-    order = jnp.asarray(np.argsort(np.log(np.asarray(Vp)) + np.asarray(shift.log_shift(Tp)), kind="stable"))
-    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(load, float), Tp, Vp,
-            order)
+    method = _map_method(method, material, shift, layer, radius, P, T, V, geometry)
+    # solved in the order of the reduced speed V a_T, then the load: under time-temperature
+    # superposition the contact depends on T and V through it (up to the layer's inertia)
+    order = jnp.asarray(np.lexsort((P, np.round(np.log(V) + np.asarray(shift.log_shift(jnp.asarray(T))), 12))))
+    directions = tuple(directions)
+    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(P), jnp.asarray(T),
+            jnp.asarray(V), order, directions)
     static = dict(geometry=geometry, reduced=_reduced(method, layer))
     program = _map_program.lower(*args, **static).compile()
     t0 = time.perf_counter()
-    v, code, dT, dH, a = (np.asarray(x).reshape(T.shape[0], V.shape[0])
-                          for x in jax.block_until_ready(program(*args, **static)))
+    v, code, dT, dH, dd, a = (np.asarray(x) for x in jax.block_until_ready(program(*args, **static)))
     seconds = (time.perf_counter() - t0) / v.size
-    outside = np.zeros(v.shape, bool)
+    outside = _outside_measured(shift, T, V, a, measured_temperatures, measured_frequencies)
+    code = np.where(outside & (code == RESULTS.successful), RESULTS.outside_measured_range, code).astype(int)
+    return MapPoints(v, code, code == RESULTS.successful, dT, dH, dd, a, seconds)
+
+
+def _map_method(method, material, shift, layer, radius, P, T, V, geometry):
+    """The method of a map: a method with an :class:`~jaxroll.grids.AutoGrid` gets one grid, the
+    union of the grids resolved at the lowest and the highest temperature over every load."""
+    from .grids import union
+    from .materials.material import at_temperature
+    from .methods import as_method, default_method
+
+    method = as_method(default_method(geometry) if method is None else method)
+    method.check_geometry(geometry)
+    if method.needs_resolution(geometry):
+        loads = np.unique(P)
+        method = eqx.tree_at(lambda m: m.grid, method, union([
+            method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=loads,
+                           speeds=jnp.asarray(np.unique(V)), geometry=geometry).grid
+            for Ti in (float(np.min(T)), float(np.max(T)))]))
+    method.check_memory(geometry)
+    return method
+
+
+def _outside_measured(shift, T, V, a, measured_temperatures, measured_frequencies) -> np.ndarray:
+    """Points outside the measured temperatures ``(T_min, T_max)`` [K] or whose reduced
+    frequency ``V a_T / a`` leaves the master curve's ``(omega_min, omega_max)`` [rad/s]."""
+    outside = np.zeros(np.shape(T), bool)
     if measured_temperatures is not None:
         lo, hi = sorted(float(t) for t in measured_temperatures)
-        Tn = np.asarray(T)
-        outside |= ((Tn < lo - 1e-6) | (Tn > hi + 1e-6))[:, None]
+        outside |= (T < lo - 1e-6) | (T > hi + 1e-6)
     if measured_frequencies is not None:
         lo, hi = sorted(float(w) for w in measured_frequencies)
-        aT = np.asarray(jnp.exp(shift.log_shift(T)))
+        aT = np.asarray(jnp.exp(shift.log_shift(jnp.asarray(T))))
         with np.errstate(divide="ignore", invalid="ignore"):
-            w = aT[:, None] * np.asarray(V)[None, :] / a
+            w = aT * V / a
         outside |= ~((w >= lo * (1 - 1e-9)) & (w <= hi * (1 + 1e-9)))
-    code = np.where(outside & (code == RESULTS.successful), RESULTS.outside_measured_range, code)
-    return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))
+    return outside
+
+
+def cover_thickness(layer):
+    """The thickness [m] differentiated by the maps: ``H`` of a :class:`jaxroll.Layer`."""
+    return _cover_path(layer)(layer)
+
+
+def with_cover_thickness(layer, H):
+    """``layer`` with its cover thickness (that of :func:`cover_thickness`) set to ``H`` [m]."""
+    return eqx.tree_at(_cover_path(layer), layer, H)
+
+
+def _cover_path(layer):
+    from .engines.layer import Layer
+
+    if isinstance(layer, Layer):
+        return lambda l: l.H
+    raise NotImplementedError(f"the maps take a material and a jr.Layer, not a {type(layer).__name__}: a jr.Stack "
+                              f"needs every ply's material shifted to the temperature, which the map engine does not "
+                              f"do yet")
 
 
 def _reduced(method, layer) -> bool:
@@ -175,29 +255,32 @@ def _reduced(method, layer) -> bool:
 
 
 @eqx.filter_jit
-def _map_program(method, material, shift, layer, R, P, T, V, order, *, geometry, reduced):
-    """Values, result codes, ``dR/dT``, ``dR/dH`` and contact radii at the points ``(T, V)``
-    (1D), all points by :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in ``order``
-    (the full models: one ``lax.scan``, each point warm-started from the previous one). The
-    derivatives are forward mode: the tangent ``dT = 1`` at every point gives every
-    ``dR_i/dT_i`` at once (each point depends on its own temperature only; the warm starts carry
-    no derivative), ``dH = 1`` every ``dR_i/dH``."""
-    from .engines.layer import Layer
+def _map_program(method, material, shift, layer, R, P, T, V, order, directions, *, geometry, reduced):
+    """Values, result codes, ``dR/dT``, ``dR/dH``, the derivatives along the material
+    ``directions`` and contact radii at the points ``(T, V, P)`` (1D), all points by
+    :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in ``order`` (the full models: one
+    ``lax.scan``, each point warm-started from the previous one). The derivatives are forward
+    mode: the tangent ``dT = 1`` at every point gives every ``dR_i/dT_i`` at once (each point
+    depends on its own temperature only; the warm starts carry no derivative), ``dH = 1`` every
+    ``dR_i/dH``, a material tangent every derivative along it."""
     from .materials.material import at_temperature, shift_factor
     from .rolling import _validated
 
-    def values(T, H):
-        lay = Layer(H=H, rho=layer.rho, nu=layer.nu)
-        mats = jax.vmap(lambda t: at_temperature(material, shift, t).checked())(T)
+    def values(T, H, mat):
+        lay = with_cover_thickness(layer, H)
+        mats = jax.vmap(lambda t: at_temperature(mat, shift, t).checked())(T)
         if reduced:  # the reference material at V a_T (see _reduced)
-            res = method.evaluate_points(material, lay, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, None, 0), order=order)
+            res = method.evaluate_points(mat, lay, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
+                                         geometry, axes=(None, None, None, 0, 0), order=order)
         else:
-            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, None, 0), order=order)
-        res = jax.vmap(lambda r, m, v: _validated(method, m, lay, r, R, P, v, geometry))(res, mats, V)
+            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, 0, 0), order=order)
+        res = jax.vmap(lambda r, m, p, v: _validated(method, m, lay, r, R, p, v, geometry))(res, mats, P, V)
         return res.value, (res.result, res.contact_radius)
 
-    H = jnp.asarray(layer.H, float)
-    tangents = (jnp.stack([jnp.ones_like(T), jnp.zeros_like(T)]), jnp.asarray([0.0, 1.0]))
-    v, dv, (code, a) = jax.vmap(lambda dT, dH: jax.jvp(values, (T, H), (dT, dH), has_aux=True))(*tangents)
-    return v[0], code[0], dv[0], dv[1], a[0]
+    H = jnp.asarray(cover_thickness(layer), float)
+    zero = jax.tree_util.tree_map(jnp.zeros_like, material)
+    tangents = [(jnp.ones_like(T), jnp.zeros(()), zero), (jnp.zeros_like(T), jnp.ones(()), zero)]
+    tangents += [(jnp.zeros_like(T), jnp.zeros(()), d) for d in directions]
+    stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *tangents)
+    v, dv, (code, a) = jax.vmap(lambda t: jax.jvp(values, (T, H, material), t, has_aux=True))(stacked)
+    return v[0], code[0], dv[0], dv[1], dv[2:], a[0]

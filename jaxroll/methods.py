@@ -36,6 +36,7 @@ from . import contact as _contact
 from .contact.linear import check_linear_solver
 from .engines import cylinder, direct, slices, sphere3d
 from .engines.contact_size import estimate_contact_size
+from .engines.stack import models
 from .geometry import as_geometry, check_geometry
 from .grids import AutoGrid, FixedGrid, check_memory
 from .result import RollingResult
@@ -87,10 +88,12 @@ class AbstractMethod(eqx.Module):
                         for a, ax in zip(args, axes))
         return jax.vmap(lambda m, l, r, p, v: self.evaluate(m, l, r, p, v, geometry), in_axes=in_axes)(*args)
 
-    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere") -> "AbstractMethod":
+    def resolve(self, material, layer=None, *, radius, loads, speeds, geometry="sphere") -> "AbstractMethod":
         """This method with every :class:`~jaxroll.grids.AutoGrid` replaced by the
         :class:`~jaxroll.grids.FixedGrid` covering all ``loads`` [N or N/m] and ``speeds``
-        [m/s] (concrete values): the method to pass under ``jit``/``vmap``/``grad``."""
+        [m/s] (concrete values): the method to pass under ``jit``/``vmap``/``grad``. A
+        :class:`jaxroll.Stack` is given alone, ``method.resolve(stack, radius=..., ...)``."""
+        material, layer = models(material, layer)
         self.check_geometry(geometry)
         return self
 
@@ -209,7 +212,8 @@ class DirectElastic(_GridMethod):
     def grid_ndim(self, geometry):
         return 2
 
-    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
+    def resolve(self, material, layer=None, *, radius, loads, speeds, geometry="sphere"):
+        material, layer = models(material, layer)  # a jr.Stack alone: (its top material, the stack)
         self.check_geometry(geometry)
         if not self.needs_resolution(geometry):
             return self
@@ -264,7 +268,8 @@ class Full(_GridMethod):
     def grid_ndim(self, geometry):
         return as_geometry(geometry).surface_dims
 
-    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
+    def resolve(self, material, layer=None, *, radius, loads, speeds, geometry="sphere"):
+        material, layer = models(material, layer)  # a jr.Stack alone: (its top material, the stack)
         self.check_geometry(geometry)
         if not self.needs_resolution(geometry):
             return self
@@ -418,7 +423,8 @@ class Slices(_GridMethod):
         slices.check_options(self.algorithm, self.n_slices, self.linear_solver)
         _check_grid(self.grid, "Slices")
 
-    def resolve(self, material, layer, *, radius, loads, speeds, geometry="sphere"):
+    def resolve(self, material, layer=None, *, radius, loads, speeds, geometry="sphere"):
+        material, layer = models(material, layer)  # a jr.Stack alone: (its top material, the stack)
         self.check_geometry(geometry)
         if not self.needs_resolution(geometry):
             return self

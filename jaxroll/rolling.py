@@ -29,6 +29,7 @@ import numpy as np
 
 from ._numerics import as_float, check_plausible, check_roller_values, input_checks, roller_inputs
 from .engines.layer import Layer
+from .engines.stack import Stack, models
 from .materials.material import AbstractMaterial
 from .engines.contact_size import estimate_contact_size
 from .geometry import check_geometry
@@ -53,8 +54,8 @@ def _check_models(material, layer):
     if not isinstance(material, AbstractMaterial):
         raise ValueError(f"material must be a jaxroll material (jr.StandardLinearSolid, jr.GeneralizedMaxwell, "
                          f"jr.materials.AtTemperature, ...); got {type(material).__name__}")
-    if not isinstance(layer, Layer):
-        raise ValueError(f"layer must be a jr.Layer; got {type(layer).__name__}")
+    if not isinstance(layer, (Layer, Stack)):
+        raise ValueError(f"layer must be a jr.Layer (or give a jr.Stack alone); got {type(layer).__name__}")
 
 
 def _prepare(method, material, layer, radius, loads, speeds, geometry):
@@ -145,7 +146,7 @@ def _finish(res: RollingResult, throw: bool, where: str) -> RollingResult:
     return res
 
 
-def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere", method=None,
+def rolling_resistance(material, layer=None, *, radius, load, speed, geometry="sphere", method=None,
                        throw=True) -> RollingResult:
     """Rolling resistance of a rigid sphere or cylinder on a viscoelastic layer, at one point.
 
@@ -153,6 +154,8 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
         material: a material (``jr.StandardLinearSolid(G0, tau, f)``, ``jr.GeneralizedMaxwell``,
             ``jr.at_temperature(...)``, any :class:`jaxroll.materials.material.AbstractMaterial`).
         layer: :class:`jaxroll.engines.layer.Layer` (``H`` [m], ``jnp.inf`` for a half-space).
+            Bonded plies: a :class:`jaxroll.Stack` given alone in place of ``material``,
+            ``rolling_resistance(stack, radius=..., ...)`` (it carries its materials).
         radius: roller radius ``R`` [m].
         load: ``P`` [N] (sphere) or ``P'`` [N/m] (cylinder, per unit length).
         speed: rolling speed ``V`` [m/s], ``>= 0`` (the roller travels toward +x).
@@ -177,13 +180,14 @@ def rolling_resistance(material, layer, *, radius, load, speed, geometry="sphere
     Works under ``jax.jit``, ``jax.vmap`` (scalar ``radius``, ``load``, ``speed`` per call) and
     ``jax.grad`` with respect to the material and layer parameters, ``R``, ``P`` and ``V``.
     """
+    material, layer = models(material, layer)
     method, traced = _prepare(method, material, layer, radius, load, speed, geometry)
     radius, load, speed = as_float(radius), as_float(load), as_float(speed)
     res = _point(method.dynamic(), material, layer, radius, load, speed, geometry, traced)
     return _finish(res, bool(throw), "rolling_resistance")
 
 
-def rolling_resistance_grid(material, layer, *, radius, loads, speeds, geometry="sphere", method=None,
+def rolling_resistance_grid(material, layer=None, *, radius, loads, speeds, geometry="sphere", method=None,
                             throw=False) -> RollingResult:
     """Rolling resistance on the table ``speeds x loads`` (the paper's "reference case").
 
@@ -201,6 +205,7 @@ def rolling_resistance_grid(material, layer, *, radius, loads, speeds, geometry=
     loads, speeds = as_float(loads), as_float(speeds)
     if loads.ndim != 1 or speeds.ndim != 1 or loads.size == 0 or speeds.size == 0:
         raise ValueError(f"loads and speeds must be non-empty 1D arrays; got shapes {loads.shape} and {speeds.shape}")
+    material, layer = models(material, layer)
     method, traced = _prepare(method, material, layer, radius, loads, speeds, geometry)
     res = _grid(method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry, traced)
     return _finish(res, bool(throw), "rolling_resistance_grid")

@@ -3,6 +3,7 @@ bad arguments with one clear message (exit status 2)."""
 
 import csv
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -518,3 +519,33 @@ def test_material_prony_smoothness_is_the_library_fit(material_dir, tmp_path):
     np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
     np.testing.assert_allclose(np.asarray(mat.tau), np.asarray(want.tau), rtol=1e-12)
     assert json.loads((tmp_path / "material.json").read_text())["info"]["prony"]["smoothness"] == 1.0
+
+
+def test_conveyor_trough_rows_match_the_library(material_dir, tmp_path, capsys):
+    """``jaxroll conveyor`` with a three-roll trough: the CSV's line loads are those of
+    jr.conveyor.trough_loads, each row's F_ir' is the front door's value at that point (the direct
+    method named explicitly: plumbing, not the method, is under test) and the summary line per
+    temperature and speed sums the rolls."""
+    _, mdir = material_dir
+    argv = ["conveyor", "--material", str(mdir / "material.json"), "--belt-width", "1.2", "--belt-mass", "20",
+            "--bulk-mass", "150", "--idler-spacing", "1.2", "--roll-length", "0.465", "--trough-angle", "35",
+            "--temperatures", "298.15", "--speeds", "2,5", "--n-idlers", "100", "--method", "direct", "--quiet",
+            "--out", str(tmp_path)]
+    assert main(argv) == 0
+    L = jr.conveyor.trough_loads(belt_width=1.2, belt_mass=20.0, bulk_mass=150.0, spacing=1.2, roll_length=0.465,
+                                 trough_angle=np.radians(35.0))
+    rows = _rows(tmp_path / "conveyor.csv")
+    assert rows[0][:6] == ["temperature", "speed", "line_load", "F_ir_per_width", "F_ir_per_idler", "coefficient"]
+    assert rows[0][-2:] == ["valid", "result"] and len(rows) == 2 + 2 * 2
+    table = np.array([[float(x) for x in r[:4]] for r in rows[2:]])
+    np.testing.assert_allclose(table[:2, 2], L.line_load, rtol=1e-7)  # 8 digits in the CSV
+    mat, shift = jr.load_material(mdir / "material.json")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", jr.ValidityWarning)
+        ref = jr.rolling_resistance_grid(jr.at_temperature(mat, shift, 298.15), jr.Layer(0.006), radius=0.0795,
+                                         loads=np.sort(L.line_load), speeds=[2.0, 5.0], geometry="cylinder",
+                                         method="direct")
+    np.testing.assert_allclose(table[:, 3], np.asarray(ref.value)[:, ::-1].ravel(), rtol=1e-7)
+    out = capsys.readouterr().out
+    F = np.dot(L.count, table[2:, 3] * L.contact_length)
+    assert "center roll F_z" in out and f"F_ir {F:.4g} N per idler set" in out and "100 sets" in out

@@ -2,6 +2,7 @@
 
 * :mod:`~jaxroll.engines.special`: Bessel and Struve functions in JAX;
 * :mod:`~jaxroll.engines.layer`: the layer and its transfer function ``T(q)``;
+* :mod:`~jaxroll.engines.stack`: bonded ply stacks and their compliance;
 * :mod:`~jaxroll.engines.contact_size`: the contact half-width or radius of each method;
 * :mod:`~jaxroll.engines.pressure`: the assumed pressure profiles of the direct method;
 * :mod:`~jaxroll.engines.direct`: the direct series (the paper's Eq. 27 / 28);
@@ -14,4 +15,4 @@ Users normally reach them through the method objects (:class:`jaxroll.Full`, ...
 :func:`jaxroll.rolling_resistance`; the modules are importable for their lower-level functions.
 """
 
-from . import special, layer, contact_size, pressure, direct, aperiodic, cylinder, sphere3d, slices  # noqa: E402,F401
+from . import special, layer, stack, contact_size, pressure, direct, aperiodic, cylinder, sphere3d, slices  # noqa: E402,F401

@@ -281,6 +281,28 @@ def surface_factor(t_fn, dx, window: int, squared: bool):
     return A.reshape((n_chunks * SURFACE_CHUNK,) + A.shape[2:])[:K]
 
 
+def surface_factor_pair(t_fn, dx, window: int):
+    """``(A, B)`` of :func:`surface_factor` for ``t`` (``squared=False``) and ``Im t``
+    (``squared=True``) from one evaluation of ``t`` per chunk (a compliance evaluated per
+    speed, e.g. a layer with inertia or a ply stack, costs one pass instead of two)."""
+    rule = fourier_rule(window, W_CUT_SURFACE)
+    scale = 2.0 * jnp.pi / dx
+    w = rule.w
+    K = w.size
+    n_chunks = -(-K // SURFACE_CHUNK)
+    wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
+    sy = np.sinc(w)
+
+    def chunk(wxc):
+        t = t_fn(scale * wxc[None, :], scale * w[:, None])  # (K_y, chunk)
+        a = rule.cosine(t * jnp.asarray(sy[:, None], t.dtype)).T
+        b = rule.cosine(jnp.imag(t) * jnp.asarray(sy[:, None] ** 2)).T
+        return a, b
+
+    A, B = jax.lax.map(chunk, jnp.asarray(wx))
+    return tuple(x.reshape((n_chunks * SURFACE_CHUNK,) + x.shape[2:])[:K] for x in (A, B))
+
+
 def _mirror_y(a):
     """``(2W-1, W)`` values at ``m = 0..W-1`` -> ``(2W-1, 2W-1)`` at ``m = -(W-1)..W-1`` (even)."""
     return jnp.concatenate([a[:, :0:-1], a], axis=1)

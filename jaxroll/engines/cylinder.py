@@ -90,7 +90,7 @@ def compliance_function(material, layer: Layer, V):
     ``|q| H >= 40`` (the layer correction is ~e^{-2 q H}). With inertia (``rho > 0`` or a traced
     ``rho``) this is ``surface_compliance`` itself.
     """
-    if not (layer.nu < 0.5 or is_quasistatic(layer)):  # compressible layers are quasi-static in jaxroll
+    if not (is_quasistatic(layer) or (isinstance(layer, Layer) and layer.nu < 0.5)):  # compressible: quasi-static
         return lambda q: surface_compliance(layer, material, q, 0.0, V)
     H = as_float(layer.H)
     halfspace = Layer(jnp.inf, nu=layer.nu)

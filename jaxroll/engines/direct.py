@@ -80,7 +80,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._numerics import as_float, check_input, roller_inputs, where_safe
-from .layer import static_compliance, surface_compliance
+from .layer import Layer, single_layer, static_compliance, surface_compliance
+from .stack import stack_compliance
 from ..materials.material import complex_modulus, storage_modulus
 from .pressure import (
     PRESSURE_MODELS,
@@ -297,6 +298,7 @@ def select_pressure(material, layer, radius, load, *, pressure="auto", geometry=
         ``models[1]``, if any).
     """
     R, P = as_float(radius), as_float(load)
+    layer = single_layer(layer)  # a Stack: its equivalent layer (the pressure models are single-layer laws)
     H = as_float(layer.H)
     inf_H = jnp.isinf(H)
     Hf = where_safe(inf_H, 1.0, H)
@@ -366,6 +368,9 @@ def _im_t_fast(layer, material, q, qx, qy, V):
         shape = jnp.broadcast_shapes(jnp.shape(q), jnp.shape(qx), jnp.shape(qy))
         return _im_t(layer, material, jnp.broadcast_to(qx, shape), jnp.broadcast_to(qy, shape), V)
 
+    if not isinstance(layer, Layer):  # a Stack: the plies' moduli do not factor out; its real
+        # propagators are evaluated on the shape of q only
+        return jnp.imag(stack_compliance(layer, qx, qy, V, q=q))
     rho = layer.rho
     if not isinstance(rho, jax.core.Tracer):
         return factorised(None) if bool(np.all(np.asarray(rho) == 0.0)) else general(None)
@@ -553,9 +558,10 @@ def direct_rolling_resistance(material, layer, *, radius, load, speed, geometry=
     if geometry not in ("sphere", "cylinder"):
         raise ValueError(f"unknown geometry {geometry!r}; choose 'sphere' or 'cylinder'")
     R, P, V = roller_inputs(radius, load, speed)
-    H = as_float(layer.H)
-    H = check_input(H, ~(H > 0), "layer thickness H must be positive (jnp.inf for a half-space)")
-    layer = eqx.tree_at(lambda l: l.H, layer, H)
+    if isinstance(layer, Layer):  # (a Stack's plies are checked by Stack.checked)
+        H = as_float(layer.H)
+        H = check_input(H, ~(H > 0), "layer thickness H must be positive (jnp.inf for a half-space)")
+        layer = eqx.tree_at(lambda l: l.H, layer, H)
 
     if period is None and n_terms is not None:
         raise ValueError("n_terms needs a period (the aperiodic limit is the default)")

@@ -57,6 +57,7 @@ __all__ = [
     "surface_compliance",
     "static_compliance",
     "is_quasistatic",
+    "single_layer",
     "shear_wave_speed",
     "transfer_incompressible",
     "transfer_compressible",
@@ -306,8 +307,18 @@ def _static_t1_jvp(nu, primals, tangents):
     return out, jac_q * dq + jac_H * dH
 
 
+def single_layer(layer) -> Layer:
+    """``layer`` itself, or a :class:`~jaxroll.engines.stack.Stack`'s equivalent layer (the
+    single-layer formulas of contact sizes, pressure models and grid rules)."""
+    return layer if isinstance(layer, Layer) else layer.equivalent_layer()
+
+
 def is_quasistatic(layer: Layer) -> bool:
-    """True when ``rho`` is concretely zero (a traced ``rho`` takes the general path)."""
+    """True when ``rho`` is concretely zero (a traced ``rho`` takes the general path): the
+    compliance factorises, ``T = T_1(|q|)/G_m`` (:func:`static_compliance`). False for a
+    :class:`~jaxroll.engines.stack.Stack` (its plies' moduli do not factor out)."""
+    if not isinstance(layer, Layer):
+        return False
     rho = layer.rho
     if isinstance(rho, float):
         return rho == 0.0
@@ -332,7 +343,8 @@ def surface_compliance(layer: Layer, material, qx, qy, V) -> jax.Array:
     with the corrections in the module docstring). Plane strain (cylinders): ``q_y = 0``.
 
     Args:
-        layer: :class:`Layer`.
+        layer: :class:`Layer`, or a :class:`~jaxroll.engines.stack.Stack` (then ``material`` is
+            not used: :func:`jaxroll.engines.stack.stack_compliance`).
         material: a material of :mod:`jaxroll.materials.material`.
         qx, qy: wavenumbers [rad/m] (broadcast together).
         V: rolling speed [m/s] (broadcasts); ``|V|`` must stay below the shear-wave speed.
@@ -341,6 +353,9 @@ def surface_compliance(layer: Layer, material, qx, qy, V) -> jax.Array:
         complex ``T`` [m/Pa], shape of the broadcast inputs; ``Re T > 0``, ``Im T > 0`` for
         ``q_x V > 0``; ``T(0, 0) = 0``.
     """
+    if not isinstance(layer, Layer):  # a Stack: its plies carry their materials
+        from .stack import stack_compliance
+        return stack_compliance(layer, qx, qy, V)
     qx, qy, V = as_float(qx), as_float(qy), as_float(V)
     c_s = shear_wave_speed(layer, material)
     V = eqx.error_if(
@@ -354,7 +369,7 @@ def surface_compliance(layer: Layer, material, qx, qy, V) -> jax.Array:
     q2 = qx * qx + qy * qy
     q_pos = q2 > 0
     q = jnp.where(q_pos, jnp.sqrt(where_safe(q_pos, q2, 1.0)), 0.0)
-    if layer.nu < 0.5 or is_quasistatic(layer):
+    if is_quasistatic(layer) or layer.nu < 0.5:
         # exact factorisation without inertia: real closed form once, divided by G_m
         return _c(static_compliance(layer, q)) / G
     eps = jnp.where(q_pos, _c(layer.rho * V * V * qx * qx) / (G * _c(where_safe(q_pos, q2, 1.0))), 0.0)

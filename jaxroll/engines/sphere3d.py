@@ -223,8 +223,7 @@ def _infinite_kernel_builder(material, layer, grid: FixedGrid):
             def t(qxx, qyy):
                 return surface_compliance(layer, material, qxx, qyy, V)
 
-            A = _aperiodic.surface_factor(t, dx, W, False)
-            B = _aperiodic.surface_factor(lambda a, b: jnp.imag(t(a, b)), dx, W, True)
+            A, B = _aperiodic.surface_factor_pair(t, dx, W)
             return _aperiodic.surface_window_kernel(A, B, None, dx, W)
     return build
 

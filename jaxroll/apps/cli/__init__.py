@@ -1,5 +1,5 @@
 """``jaxroll`` command line: one module per command (``demo``, ``curve``, ``sweep``, ``fit``,
-``material``, ``map``, ``reproduce``, ``datasets``), each with ``add_parser(sub)`` and ``run(args)``; shared option
+``material``, ``map``, ``conveyor``, ``reproduce``, ``datasets``), each with ``add_parser(sub)`` and ``run(args)``; shared option
 types in :mod:`~jaxroll.apps.cli.options`. Units are SI throughout (m, N, Pa, s, kg/m^3)."""
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ import warnings
 
 import equinox as eqx
 
-from . import curve, datasets, demo, fit, map, material, reproduce, sweep
+from . import conveyor, curve, datasets, demo, fit, map, material, reproduce, sweep
 from .options import Parser, runtime_message
 
 __all__ = ["build_parser", "main"]
 
-COMMANDS = (demo, curve, sweep, fit, material, map, reproduce, datasets)
+COMMANDS = (demo, curve, sweep, fit, material, map, conveyor, reproduce, datasets)
 
 
 def build_parser() -> argparse.ArgumentParser:

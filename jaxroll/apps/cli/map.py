@@ -20,6 +20,18 @@ def _material_info(path):
     return json.loads(path.read_text()).get("info") or {} if path.suffix.lower() == ".json" else {}
 
 
+def shifted_material(path):
+    """``(material, shift, info)`` of a material file for a map over temperature: ``ValueError``
+    when the file has no shift law."""
+    import jaxroll as jr
+
+    mat, shift = jr.load_material(path)
+    if shift is None:
+        raise ValueError(f"--material {path}: no shift law (WLF or Arrhenius) in the file; a map over "
+                         f"temperature needs one (jaxroll material writes the fitted WLF law)")
+    return mat, shift, _material_info(path)
+
+
 def run(args) -> int:
     import jaxroll as jr
     from jaxroll.apps import plot
@@ -27,11 +39,7 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    mat, shift = jr.load_material(args.material)
-    if shift is None:
-        raise ValueError(f"--material {args.material}: no shift law (WLF or Arrhenius) in the file; a map over "
-                         f"temperature needs one (jaxroll material writes the fitted WLF law)")
-    info = _material_info(args.material)
+    mat, shift, info = shifted_material(args.material)
     measured, measured_w = info.get("temperature_range"), info.get("reduced_frequency_range")
     T_ref = float(shift.T_ref)
     tmin = args.tmin if args.tmin is not None else (measured[0] if measured else T_ref - 40.0)
