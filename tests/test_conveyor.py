@@ -118,6 +118,28 @@ def test_thin_compressible_cover_is_the_viscoelastic_winkler_foundation():
                 assert got[i, j] == pytest.approx(winkler_sls(P, R, H, G0, TAU, F, NU, V), rel=5e-3), (V, P)
 
 
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # the under-resolved points are flagged: the point
+# the oracle's quadrature (relative tolerance 1e-13) reports round-off at these slow speeds; its value
+# is still far inside the 1 % scale asserted here
+@pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
+def test_slow_rolling_on_a_thin_cover_is_bounded_by_its_truncation():
+    """Slow rolling on the thin cover (V tau/a0 = 0.01, 0.02) is under-resolved at 30 cells per
+    half-width: the dissipation form errs +9.4 / +2.6 % against the Winkler closed form (measured;
+    the Winkler model's own error is ~0.4 %, see above). The layer is thinner than the error
+    tables' calibration (a/H = 15), so the truncation takes the moment-dissipation gap, which
+    brackets the truth there: it bounds each error, and at 0.01 (bound > 5 %) the point is not
+    valid."""
+    Vs, loads = np.array([0.01, 0.02]) * A0 / TAU, np.array([P0, 1.5 * P0])
+    res = jr.rolling_resistance_grid(jr.StandardLinearSolid(G0, TAU, F), COVER, radius=R, loads=loads, speeds=Vs,
+                                     geometry="cylinder", method=GRID, throw=False)
+    got, bound = np.asarray(res.value), np.asarray(res.truncation)
+    for i, V in enumerate(Vs):
+        for j, P in enumerate(loads):
+            err = abs(got[i, j] / winkler_sls(P, R, H, G0, TAU, F, NU, V) - 1)
+            assert err > 0.01 and bound[i, j] > err + 4e-3, (V, P, err, bound[i, j])  # + the oracle's own 0.4 %
+    assert not np.any(np.asarray(res.valid)[0])
+
+
 # ------------------------------------------------------------------ (iii) scaling laws
 
 
