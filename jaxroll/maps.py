@@ -5,6 +5,8 @@ the gradients a designer needs (``dR_r/dT``, ``dR_r/dH``).
 from __future__ import annotations
 
 import dataclasses
+import math
+import time
 
 import equinox as eqx
 import jax
@@ -95,9 +97,13 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         radius [m], load [N, or N/m for a cylinder]; temperatures [K], speeds [m/s]: 1D axes.
         geometry: ``"sphere"`` or ``"cylinder"``.
         method: a method object or shortcut; default :func:`jaxroll.methods.default_method`
-            (the full model on an infinite layer). A method with an
-            :class:`~jaxroll.grids.AutoGrid` gets one grid for the whole map: the union of the
-            grids resolved at the lowest and the highest temperature. The periodic full models
+            (the full model on an infinite layer). A full model with an
+            :class:`~jaxroll.grids.AutoGrid` on a layer without inertia solves each point on
+            the grid its rule asks for at that point alone (:meth:`~jaxroll.grids.AutoGrid.buckets`:
+            the points grouped by cells per radius, one compiled program and one warm-started
+            scan per class, so each value is the front door's at that point); other methods
+            with an AutoGrid get one grid for the whole map, the union of the grids resolved
+            at the lowest and the highest temperature. The periodic full models
             need periods of ~20 V tau_max, impractical for spectra of 20 decades; ``"direct"``
             is a screening choice (milliseconds per point, see docs/methods.md for its error
             against the full model).
@@ -112,8 +118,6 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
             ``RESULTS.outside_measured_range`` (the Prony series is extrapolated there).
             ``None``: not checked.
     """
-    import time
-
     from ._numerics import check_roller_values
     from .grids import union
     from .materials.material import at_temperature
@@ -130,23 +134,35 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         raise ValueError("temperatures must be positive [K]")
     method = as_method(default_method(geometry) if method is None else method)
     method.check_geometry(geometry)
-    if method.needs_resolution(geometry):  # one grid for the map: the union of the coldest and hottest
-        method = eqx.tree_at(lambda m: m.grid, method, union([
+    Tp, Vp = (np.asarray(a).ravel() for a in np.meshgrid(np.asarray(T), np.asarray(V), indexing="ij"))
+    reduced = _reduced(method, layer)
+    # under time-temperature superposition the contact depends on T and V through V a_T (up to
+    # the layer's inertia): the points are solved in that order, so neighbours are alike
+    Vr = Vp * np.exp(np.asarray(shift.log_shift(jnp.asarray(Tp))))
+    if method.needs_resolution(geometry) and reduced:
+        # one grid per class the rule asks for at each point alone (the reference material at V a_T)
+        buckets = [(eqx.tree_at(lambda m: m.grid, method, g), idx) for g, idx in
+                   method.grid.buckets(material, layer, radius, np.full(Vr.shape, float(load)), Vr, geometry)]
+    elif method.needs_resolution(geometry):  # one grid for the map: the union of the coldest and hottest
+        buckets = [(eqx.tree_at(lambda m: m.grid, method, union([
             method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=[load], speeds=V,
-                           geometry=geometry).grid for Ti in (float(np.min(T)), float(np.max(T)))]))
-    method.check_memory(geometry)
-    Tp, Vp = (a.ravel() for a in jnp.meshgrid(T, V, indexing="ij"))
-    # solved in the order of the reduced speed V a_T: under time-temperature superposition the
-    # contact depends on T and V through it (up to the layer's inertia), so neighbours are alike
-    order = jnp.asarray(np.argsort(np.log(np.asarray(Vp)) + np.asarray(shift.log_shift(Tp)), kind="stable"))
-    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(load, float), Tp, Vp,
-            order)
-    static = dict(geometry=geometry, reduced=_reduced(method, layer))
-    program = _map_program.lower(*args, **static).compile()
+                           geometry=geometry).grid for Ti in (float(np.min(T)), float(np.max(T)))])),
+            np.arange(Tp.size))]
+    else:
+        buckets = [(method, np.arange(Tp.size))]
+    for m, _ in buckets:
+        m.check_memory(geometry)
+    programs = [_bucket_program(m, idx, Vr, material, shift, layer, radius, load, Tp, Vp, geometry, reduced)
+                for m, idx in buckets]
+    v, code, dT, dH, a = (np.empty(Tp.size) for _ in range(5))
     t0 = time.perf_counter()
-    v, code, dT, dH, a = (np.asarray(x).reshape(T.shape[0], V.shape[0])
-                          for x in jax.block_until_ready(program(*args, **static)))
-    seconds = (time.perf_counter() - t0) / v.size
+    outs = [jax.block_until_ready(program(*args)) for program, args, _ in programs]
+    seconds = (time.perf_counter() - t0) / Tp.size
+    for (_, _, idx), out in zip(programs, outs):
+        for dest, x in zip((v, code, dT, dH, a), out):
+            dest[idx] = np.asarray(x)[:idx.size]
+    v, code, dT, dH, a = (x.reshape(T.shape[0], V.shape[0]) for x in (v, code, dT, dH, a))
+    code = code.astype(int)
     outside = np.zeros(v.shape, bool)
     if measured_temperatures is not None:
         lo, hi = sorted(float(t) for t in measured_temperatures)
@@ -159,7 +175,32 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
             w = aT[:, None] * np.asarray(V)[None, :] / a
         outside |= ~((w >= lo * (1 - 1e-9)) & (w <= hi * (1 + 1e-9)))
     code = np.where(outside & (code == RESULTS.successful), RESULTS.outside_measured_range, code)
-    return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code.astype(int))
+    return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code)
+
+
+#: Compiled map programs by their static configuration and shapes (:func:`_bucket_program`).
+_PROGRAMS: dict = {}
+
+
+def _bucket_program(method, idx, Vr, material, shift, layer, radius, load, Tp, Vp, geometry, reduced):
+    """``(compiled, args, points)`` of :func:`_map_program` for the points ``idx`` (``points``:
+    them in the order solved, the order of the outputs' first ``len(idx)`` entries): in the order of the
+    reduced speed ``Vr``, padded to a power of two (at least 8) with copies of the last point
+    that are not solved (``count``), so that maps whose classes hold different numbers of points
+    share the compiled program. Programs are kept by their static configuration and shapes
+    (a new material value, cell size or temperature compiles nothing)."""
+    idx = idx[np.argsort(Vr[idx], kind="stable")]
+    size = max(8, 1 << int(math.ceil(math.log2(idx.size))))
+    padded = np.concatenate([idx, np.full(size - idx.size, idx[-1])])
+    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(load, float),
+            jnp.asarray(Tp[padded]), jnp.asarray(Vp[padded]), jnp.asarray(idx.size))
+    static = dict(geometry=geometry, reduced=reduced)
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    key = (treedef, tuple((x.shape, x.dtype) if eqx.is_array(x) else x for x in leaves), geometry, reduced)
+    if key not in _PROGRAMS:
+        _PROGRAMS[key] = _map_program.lower(*args, **static).compile()
+    compiled = _PROGRAMS[key]
+    return (lambda *a: compiled(*a, **static)), args, idx
 
 
 def _reduced(method, layer) -> bool:
@@ -175,10 +216,11 @@ def _reduced(method, layer) -> bool:
 
 
 @eqx.filter_jit
-def _map_program(method, material, shift, layer, R, P, T, V, order, *, geometry, reduced):
+def _map_program(method, material, shift, layer, R, P, T, V, count, *, geometry, reduced):
     """Values, result codes, ``dR/dT``, ``dR/dH`` and contact radii at the points ``(T, V)``
-    (1D), all points by :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in ``order``
-    (the full models: one ``lax.scan``, each point warm-started from the previous one). The
+    (1D), the first ``count`` by :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in the
+    given order (the full models: one ``lax.scan``, each point warm-started from the previous
+    one; the rest is padding, not solved). The
     derivatives are forward mode: the tangent ``dT = 1`` at every point gives every
     ``dR_i/dT_i`` at once (each point depends on its own temperature only; the warm starts carry
     no derivative), ``dH = 1`` every ``dR_i/dH``."""
@@ -191,9 +233,9 @@ def _map_program(method, material, shift, layer, R, P, T, V, order, *, geometry,
         mats = jax.vmap(lambda t: at_temperature(material, shift, t).checked())(T)
         if reduced:  # the reference material at V a_T (see _reduced)
             res = method.evaluate_points(material, lay, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, None, 0), order=order)
+                                         geometry, axes=(None, None, None, None, 0), count=count)
         else:
-            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, None, 0), order=order)
+            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, None, 0), count=count)
         res = jax.vmap(lambda r, m, v: _validated(method, m, lay, r, R, P, v, geometry))(res, mats, V)
         return res.value, (res.result, res.contact_radius)
 
