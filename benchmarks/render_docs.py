@@ -113,6 +113,23 @@ def first_use(numbers: dict) -> str:
             f"commit {m['commit']}): " + "; ".join(parts) + ".")
 
 
+def batched_table(numbers: dict) -> str:
+    sec = numbers["batched"]
+    m = sec["measured"]
+    lines = [
+        f"`{sec['command']}`, {_machine(m)}; load average {sec['load_start']:g} at the start and "
+        f"{sec['load_end']:g} at the end (the machine is shared: each entry ran alternately with its baseline in "
+        "the same process, so compare the ratio column). Medians; compile ahead of time, apart.",
+        "",
+        "| entry | per point | compile | ratio to the table | note |",
+        "|---|---|---|---|---|",
+    ]
+    for r in sec["rows"]:
+        lines.append(f"| {r['entry']} | {r['per_point_s'] * 1e3:.2f} ms | {r['compile_s']:.1f} s | {r['ratio']:.2f}x "
+                     f"| {r['note']} |")
+    return "\n".join(lines)
+
+
 #: generated block name -> renderer of numbers.json
 BLOCKS = {
     "methods-table": methods_table,

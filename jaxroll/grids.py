@@ -459,21 +459,20 @@ class AutoGrid(eqx.Module):
         return cells, r
 
     def buckets(self, material, layer, radius, loads, speeds, geometry) -> list:
-        """The points ``(loads[i], speeds[i])`` grouped by the grid class the full model's rule
-        asks for at each point alone (:meth:`point_cells`): ``[(grid, indices), ...]``, finest
-        class last, each grid the rule's grid at that class over its points (the smallest size
-        sets the cell, the largest the window; the fastest speed an automatic period). Where
-        every point of a class has the same estimated size (one load, e.g. a temperature x
-        speed map), the class's grid is each point's own grid, so a batch solved per class
-        gives the per-point numbers, with one compiled program per class (the window is
-        static, the cell size a traced value)."""
+        """The points ``(loads[i], speeds[i])`` grouped by the grid the full model's rule asks
+        for at each point alone (:meth:`point_cells`: its cells per radius and its estimated
+        size): ``[(grid, indices), ...]``, coarsest class first. Each grid is that of every one
+        of its points (an automatic period: long enough for the bucket's fastest point), so a
+        batch solved per bucket gives the per-point numbers. Buckets of one class share the
+        window (static) and differ only in the cell size (a traced value), hence one compiled
+        program per class; a temperature x speed map at one load has one bucket per class."""
         cells, r = self.point_cells(material, layer, radius, loads, speeds, geometry)
         speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), r.shape)
+        build = self._sphere_grid if geometry == "sphere" else self._line_grid
         out = []
-        for c in sorted(set(int(c) for c in cells)):
-            idx = np.flatnonzero(cells == c)
-            build = self._sphere_grid if geometry == "sphere" else self._line_grid
-            out.append((build(r[idx], c, float(speeds[idx].max()), material), idx))
+        for c, size in sorted(set(zip(cells.tolist(), r.tolist()))):
+            idx = np.flatnonzero((cells == c) & (r == size))
+            out.append((build(r[idx], int(c), float(speeds[idx].max()), material), idx))
         return out
 
 

@@ -5,7 +5,6 @@ the gradients a designer needs (``dR_r/dT``, ``dR_r/dH``).
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 
 import equinox as eqx
@@ -178,31 +177,6 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
     return ResistanceMap(np.asarray(T), np.asarray(V), v, code == RESULTS.successful, dT, dH, seconds, code)
 
 
-#: Compiled map programs by their static configuration and shapes (:func:`_bucket_program`).
-_PROGRAMS: dict = {}
-
-
-def _bucket_program(method, idx, Vr, material, shift, layer, radius, load, Tp, Vp, geometry, reduced):
-    """``(compiled, args, points)`` of :func:`_map_program` for the points ``idx`` (``points``:
-    them in the order solved, the order of the outputs' first ``len(idx)`` entries): in the order of the
-    reduced speed ``Vr``, padded to a power of two (at least 8) with copies of the last point
-    that are not solved (``count``), so that maps whose classes hold different numbers of points
-    share the compiled program. Programs are kept by their static configuration and shapes
-    (a new material value, cell size or temperature compiles nothing)."""
-    idx = idx[np.argsort(Vr[idx], kind="stable")]
-    size = max(8, 1 << int(math.ceil(math.log2(idx.size))))
-    padded = np.concatenate([idx, np.full(size - idx.size, idx[-1])])
-    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(load, float),
-            jnp.asarray(Tp[padded]), jnp.asarray(Vp[padded]), jnp.asarray(idx.size))
-    static = dict(geometry=geometry, reduced=reduced)
-    leaves, treedef = jax.tree_util.tree_flatten(args)
-    key = (treedef, tuple((x.shape, x.dtype) if eqx.is_array(x) else x for x in leaves), geometry, reduced)
-    if key not in _PROGRAMS:
-        _PROGRAMS[key] = _map_program.lower(*args, **static).compile()
-    compiled = _PROGRAMS[key]
-    return (lambda *a: compiled(*a, **static)), args, idx
-
-
 def _reduced(method, layer) -> bool:
     """Whether the map evaluates the reference material at the reduced speed ``V a_T(T)``: the
     full models on a layer without inertia, where ``G*(q V; T) = G*_ref(q V a_T)`` makes the
@@ -213,6 +187,23 @@ def _reduced(method, layer) -> bool:
     from .methods import Full
 
     return isinstance(method, Full) and is_quasistatic(layer)
+
+
+def _bucket_program(method, idx, Vr, material, shift, layer, radius, load, Tp, Vp, geometry, reduced):
+    """``(call, args, points)`` of :func:`_map_program` compiled for the points ``idx`` in the
+    order of the reduced speed ``Vr`` (``points``: them in that order, the order of the outputs'
+    first ``len(idx)`` entries), padded (:func:`jaxroll.buckets.padded`) so that classes of
+    other sizes share the program, kept by its static configuration and shapes
+    (:func:`jaxroll.buckets.compiled`: a new material value, cell size or temperature compiles
+    nothing)."""
+    from .buckets import compiled, padded
+
+    idx = idx[np.argsort(Vr[idx], kind="stable")]
+    pad, count = padded(idx)
+    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(load, float),
+            jnp.asarray(Tp[pad]), jnp.asarray(Vp[pad]), jnp.asarray(count))
+    call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced))
+    return call, args, idx
 
 
 @eqx.filter_jit
