@@ -185,5 +185,6 @@ def test_map_per_regime_buckets_equal_the_front_door_and_reuse_their_programs(ca
             one = front_door(PAPER.G0, T, V)
             assert abs(m.value[i, j] / float(one.value) - 1) < 1e-10, (T, V)
             assert m.result[i, j] == int(one.result) == 0
-    assert _compilations(caplog, lambda: the_map(1.02 * PAPER.G0)) == 0
-    assert _compilations(caplog, lambda: front_door(1.02 * PAPER.G0, Ts[0], Vs[0])) == 0
+    stiffer = float(1.02 * PAPER.G0)
+    assert _compilations(caplog, lambda: the_map(stiffer)) == 0
+    assert _compilations(caplog, lambda: front_door(stiffer, Ts[0], Vs[0])) == 0

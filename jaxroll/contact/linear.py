@@ -46,9 +46,10 @@ RESTART_PLAIN = 80
 #: pair it also switches to the robust level.
 FALLBACK_RESTART = 96
 #: Restart cycles of the first solve (with the cheap, folded preconditioner of a pair) before it
-#: hands over to the fallback (with the whole embedding's): 64 Krylov iterations, about 2x what a
-#: solve near the resistance peak needs with the whole embedding's at 12-24 cells per radius.
-FIRST_SOLVE_CYCLES = 2
+#: hands over to the fallback (with the whole embedding's, then used from the start by the later
+#: solves of the contact solve): 32 Krylov iterations, what an easy solve (off the resistance peak,
+#: coarse grids) needs with the folded one, so the harder ones switch after one cycle.
+FIRST_SOLVE_CYCLES = 1
 #: Krylov iterations of a solve without fallback (restarts = this // restart), and of the fallback
 #: solve (which follows at most ``FIRST_SOLVE_CYCLES`` cycles of the first).
 MAX_KRYLOV_ITERATIONS = 1600
