@@ -188,3 +188,26 @@ def test_map_per_regime_buckets_equal_the_front_door_and_reuse_their_programs(ca
     stiffer = float(1.02 * PAPER.G0)
     assert _compilations(caplog, lambda: the_map(stiffer)) == 0
     assert _compilations(caplog, lambda: front_door(stiffer, Ts[0], Vs[0])) == 0
+
+
+def test_buckets_are_the_per_point_grids_of_the_quick_reference():
+    """The grid of each bucket is the one the front door's rule resolves for each of its points
+    alone (``Full().resolve`` on that load and speed: the independent path through
+    ``AutoGrid.sphere``), for the quick reproduction's H = 5 mm case (7 speeds x 3 loads); and the
+    quick reference falls back to its fixed grid where the rule's windows exceed
+    ``MAX_RULE_WINDOW`` (H = 10 um), before solving anything."""
+    from jaxroll.apps import reproduce as rp
+
+    s, case = rp.QUICK, rp.CASES["H5mm"]
+    speeds = np.geomspace(*s.speed_range, s.n_speeds)
+    P, V = (a.ravel() for a in np.meshgrid(np.linspace(*case.loads, s.n_loads), speeds, indexing="ij"))
+    layer = jr.Layer(case.H)
+    buckets = jr.Full().grid.buckets(rp._material(), layer, case.R, P, V, "sphere")
+    assert sorted(np.concatenate([i for _, i in buckets]).tolist()) == list(range(P.size))
+    assert len({g.window for g, _ in buckets}) >= 2  # several classes over four decades of speed
+    for grid, idx in buckets:
+        for i in idx:
+            own = jr.Full().resolve(rp._material(), layer, radius=case.R, loads=[P[i]], speeds=[V[i]]).grid
+            assert own.window == grid.window and abs(own.spacing / grid.spacing - 1) < 1e-12, (P[i], V[i])
+    tiny = rp.CASES["H10um"]
+    assert rp._run_rule_reference(tiny, np.linspace(*tiny.loads, 2), speeds[:2]) is None

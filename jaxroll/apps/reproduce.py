@@ -596,10 +596,9 @@ def _report_lines(rep: Reproduction, figs: dict) -> list:
         "",
         f"Material: standard linear solid G0 = {G0 / 1e6:g} MPa, tau = {TAU:g} s, f = {F:g} ([ZG] eq. 12); "
         "quasi-static incompressible layer (rho = 0, nu = 0.5); no friction.",
-        (f"Reference: full 3D model, {_reference_period(s)} "
-         if s.reference_grid == "rule" else f"Reference: full 3D model, cells a = {s.spacing * 1e3:g} mm, {_reference_period(s)} ")
-        +
-        f"(paper: 0.25 mm, period 0.2 m, 500 terms). Slices PD/PP/SP: {s.n_slices} slices, 2D period {s.period} m on "
+        "Reference: full 3D model, "
+        + ("" if s.reference_grid == "rule" else f"cells a = {s.spacing * 1e3:g} mm, ")
+        + f"{_reference_period(s)} (paper: 0.25 mm, period 0.2 m, 500 terms). Slices PD/PP/SP: {s.n_slices} slices, 2D period {s.period} m on "
         f"{s.slice_cells} cells (window {s.slice_window} cells). Direct: aperiodic limit (rtol {s.direct_rtol:g}), "
         "automatic stationary pressure (Jaffar thick layer, thin layer for 10 um).",
         "Relative error = method / full 3D - 1 (positive: the method overestimates R_r). Every statistic and "
