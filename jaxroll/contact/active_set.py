@@ -76,7 +76,8 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
         system: the stopped system (:meth:`ContactSystem.stopped`).
         mask0: initial contact set; ``x0``: initial scaled unknowns.
         solver: an :class:`~jaxroll.contact.linear.AbstractLinearSolver`.
-        precond: ``mask -> M`` (or ``None``-returning) for the active-set systems.
+        precond: ``mask -> M`` or a pair ``(M_cheap, M_whole)`` (or ``None``-returning) for the
+            active-set systems.
 
     Returns:
         ``(mask, x, iterations, converged, robust)``; ``robust``: whether a linear solve needed

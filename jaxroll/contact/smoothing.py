@@ -42,7 +42,9 @@ def _residual(system: ContactSystem, x, c0_ratio, eps):
 
 def _jacobian(system: ContactSystem, a, gt, eps, precond: CirculantPreconditioner | None):
     """``(matvec, preconditioner)`` of the soft-min residual's Jacobian at ``(a, g~)``:
-    ``preconditioner(transpose)`` is ``M`` (or ``M^T``), ``None`` without a preconditioner."""
+    ``preconditioner(transpose)`` is the pair ``(M_cheap, M_whole)`` (or their transposes) of
+    :meth:`~jaxroll.contact.precondition.CirculantPreconditioner.block`, ``None`` without a
+    preconditioner."""
     w_a = jax.nn.sigmoid((gt - a) / eps)  # d smin / d a; d smin / d g = 1 - w_a
     ratio = system.p_s / system.g_s
 
