@@ -15,8 +15,9 @@ layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
   and ``points H x20``: ``Full.evaluate_points`` with the layer batched;
 * ``map``: ``jr.resistance_map`` of the shipped measured Prony material
   (``pyvisco_freq_user_raw.csv``: WLF, Prony fit) on a 10 mm layer, 10 N, R = 1 cm, 253..373 K x
-  1e-3..10 m/s, values with dR/dT and dR/dH (automatic grid), with its baseline: the table of the
-  same reduced speeds ``V a_T`` (one load) on the same grid, without derivatives; ``--vmap-map``
+  1e-3..10 m/s, values with dR/dT and dR/dH (automatic grid: each point on the grid the regime
+  rule asks for, one warm-started scan per grid class), with its baseline: the tables of the
+  same reduced speeds ``V a_T`` (one load) on the same grids, without derivatives; ``--vmap-map``
   adds the map's program before batching (``jax.vmap`` of ``value_and_grad`` of the front door);
 * ``jr.sweep H x20``: the front door over the same 20 thicknesses through ``jr.sweep``, chunks
   vectorised (default) and ``vectorize=False`` (points one after the other);
@@ -178,26 +179,35 @@ def map_rows(args, rows):
     t = time.perf_counter()
     m = run_map()
     first = time.perf_counter() - t
-    # the baseline: the table of the same reduced speeds (one load) on the map's grid
+    # the baseline: the tables of the same reduced speeds V a_T (one load), one per grid class of
+    # the map (jr.grids.AutoGrid.buckets: the grid each point asks for alone), one after the other
     aT = np.exp(np.asarray(wlf.shift.log_shift(jnp.asarray(Ts))))
-    reduced = jnp.asarray(np.sort((aT[:, None] * Vs[None, :]).ravel()))
-    grid = jr.Full().resolve(jr.at_temperature(pf.material, wlf.shift, float(Ts.min())), layer, radius=radius,
-                             loads=[load], speeds=Vs, geometry="sphere").grid
-    grid = jr.grids.union([grid, jr.Full().resolve(jr.at_temperature(pf.material, wlf.shift, float(Ts.max())), layer,
-                                                   radius=radius, loads=[load], speeds=Vs, geometry="sphere").grid])
-    method = jr.Full(grid=grid)
+    reduced_all = (aT[:, None] * Vs[None, :]).ravel()
+    buckets = jr.Full().grid.buckets(pf.material, layer, radius, np.full(reduced_all.size, load), reduced_all,
+                                     "sphere")
+    tables, comp = [], 0.0
+    for grid, idx in buckets:
+        method = jr.Full(grid=grid)
+        speeds = jnp.asarray(np.sort(reduced_all[idx]))
 
-    def table(V):
-        return jr.rolling_resistance_grid(pf.material, layer, radius=radius, loads=jnp.asarray([load]), speeds=V,
-                                          method=method).value
+        def table(V, method=method):
+            return jr.rolling_resistance_grid(pf.material, layer, radius=radius, loads=jnp.asarray([load]), speeds=V,
+                                              method=method).value
 
-    c, comp = _compile(table, reduced)
-    jax.block_until_ready(c(reduced))
-    vmapped = _vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, method) if args.vmap_map else None
+        compiled, seconds = _compile(table, speeds)
+        tables.append((compiled, speeds))
+        comp += seconds
+
+    def run_tables():
+        return [f(V) for f, V in tables]
+
+    jax.block_until_ready(run_tables())
+    vmapped = (_vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, jr.Full(grid=jr.grids.union([g for g, _ in buckets])))
+               if args.vmap_map else None)
     t_map, t_table, t_vmapped = [], [], []
     for _ in range(args.repeat):
         t = time.perf_counter()
-        jax.block_until_ready(c(reduced))
+        jax.block_until_ready(run_tables())
         t_table.append(time.perf_counter() - t)
         t = time.perf_counter()
         run_map()
@@ -217,7 +227,8 @@ def map_rows(args, rows):
                      f"map: value {diff[0]:.1e}, dR/dT {diff[1]:.1e}, dR/dH {diff[2]:.1e}"))
     rows += [
         ("table of the map's reduced speeds (baseline)", tt / n, comp, 1.0,
-         f"{n} speeds x 1 load, window {grid.window}"),
+         f"{n} speeds x 1 load, one table per grid class: "
+         + ", ".join(f"window {g.window} x {len(i)}" for g, i in buckets)),
         (f"resistance_map {k}x{k} (values, dR/dT, dR/dH)", tm / n, first - tm, tm / tt,
          f"measured Prony ({pf.n_terms} terms) + WLF: {tm:.2f} s per map (call, incl. grid sizing); "
          f"{m.valid.mean() * 100:.0f} % valid"),
@@ -247,12 +258,15 @@ def main():
     ap.add_argument("--quick", action="store_true", help="coarse grid, 6x15 table, 7x7 map")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--only", choices=["reference", "map"], help="only the reference-case rows or the map rows")
+    ap.add_argument("--record", action="store_true",
+                    help="store the rows in benchmarks/numbers.json (section batched, or batched_quick with --quick)")
     ap.add_argument("--vmap-map", action="store_true",
                     help="also time the map program before batching (vmapped value_and_grad of the front door)")
     args = ap.parse_args()
     dev = jax.devices()[0]
     print(f"device: {dev.platform} {dev.device_kind} x {len(jax.devices())}; cpu count {os.cpu_count()}; "
           f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
+    load_start = round(os.getloadavg()[0], 1)
     rows = []
     if args.only in (None, "reference"):
         reference_rows(args, rows)
@@ -266,6 +280,16 @@ def main():
         print(f"| {name} | {pp * 1e3:.2f} ms | {comp:.1f} s | {ratio:.2f}x | {note} |")
         summary(f"bench_batched.py{' --quick' if args.quick else ''} ({name})", pp, comp, "warm-started table",
                 f"{ratio:.2f}x", note)
+    if args.record:
+        from _numbers import record
+
+        command = "python benchmarks/bench_batched.py" + " ".join(
+            [""] + (["--quick"] if args.quick else []) + ([f"--only {args.only}"] if args.only else [])
+            + [f"--repeat {args.repeat}"])
+        record("batched_quick" if args.quick else "batched", {
+            "command": command, "load_start": load_start, "load_end": round(os.getloadavg()[0], 1),
+            "rows": [dict(entry=name, per_point_s=pp, compile_s=comp, ratio=ratio, note=note)
+                     for name, pp, comp, ratio, note in rows]})
 
 
 if __name__ == "__main__":

@@ -113,11 +113,29 @@ def first_use(numbers: dict) -> str:
             f"commit {m['commit']}): " + "; ".join(parts) + ".")
 
 
+def batched_table(numbers: dict) -> str:
+    sec = numbers["batched"]
+    m = sec["measured"]
+    lines = [
+        f"`{sec['command']}`, {_machine(m)}; {sec['load_start']:g} at the start of the run. The machine is "
+        "shared: each entry ran alternately with its baseline in the same process, so compare the ratio column. "
+        "Medians; compile ahead of time, apart.",
+        "",
+        "| entry | per point | compile | ratio to the table | note |",
+        "|---|---|---|---|---|",
+    ]
+    for r in sec["rows"]:
+        lines.append(f"| {r['entry']} | {r['per_point_s'] * 1e3:.2f} ms | {r['compile_s']:.1f} s | {r['ratio']:.2f}x "
+                     f"| {r['note']} |")
+    return "\n".join(lines)
+
+
 #: generated block name -> renderer of numbers.json
 BLOCKS = {
     "methods-table": methods_table,
     "default-method-table": default_method_table,
     "first-use": first_use,
+    "batched-table": batched_table,
 }
 
 #: files holding generated blocks

@@ -385,11 +385,16 @@ class AutoGrid(eqx.Module):
                 cpr = max(sphere_cells_per_radius(z, b) for z, b in _regimes(material, speeds, r))
             if math.isfinite(H):
                 cpr = max(cpr, _cells(2.0 * r.max() / H))
+        return self._sphere_grid(r, cpr, float(speeds.max()), material)
+
+    def _sphere_grid(self, r, cpr, speed_max, material) -> FixedGrid:
+        """The 3D grid of ``cpr`` cells per smallest radius of ``r`` [m], its window covering the
+        largest, the automatic period long enough for ``speed_max`` [m/s]."""
         dx = float(r.min()) / cpr
         window = 2 * _cells((self.window_radii or SPHERE_WINDOW_RADII) * r.max() / dx) + 1
-        memory = float(speeds.max()) * _longest_time(material)
         period = self.period
         if isinstance(period, str):
+            memory = speed_max * _longest_time(material)
             Nx = min(_next_pow2(max(self.period_factor * max(r.max(), memory) / dx, window)), MAX_SPHERE_CELLS)
             Ny = min(_next_pow2(max(self.period_factor * r.max() / dx, window)), MAX_SPHERE_CELLS)
             period = (Nx * dx, Ny * dx)
@@ -406,22 +411,69 @@ class AutoGrid(eqx.Module):
         G0 = float(np.asarray(material.relaxed_modulus()))
         a0 = np.sqrt(loads * float(radius) / (np.pi * G0))  # relaxed Hertz half-width (E* = 4 G0)
         H = float(np.asarray(layer.H))
-        t_max = _longest_time(material)
         cpr = self.cells_per_radius
         if cpr is None and model == "full":
             cpr = max(cylinder_cells_per_radius(z, b) for z, b in _regimes(material, speeds, a))
         elif cpr is None:
-            zeta = np.outer(speeds * t_max, 1.0 / a0)  # V tau / a0 over the envelope
+            zeta = np.outer(speeds * _longest_time(material), 1.0 / a0)  # V tau / a0 over the envelope
             cpr = max(line_cells_per_radius(float(z)) for z in np.ravel(zeta))
         if self.cells_per_radius is None and math.isfinite(H):
             cpr = max(cpr, _cells(2.0 * a.max() / H))
+        return self._line_grid(a, cpr, float(speeds.max()), material)
+
+    def _line_grid(self, a, cpr, speed_max, material) -> FixedGrid:
+        """The line grid of ``cpr`` cells per smallest half-width of ``a`` [m], its window
+        covering the largest, the automatic period long enough for ``speed_max`` [m/s]."""
         dx = float(a.min()) / cpr
         window = 2 * _cells((self.window_radii or LINE_WINDOW_RADII) * a.max() / dx)
         period = self.period
         if isinstance(period, str):
-            L_need = self.period_factor * max(4.0 * a.max(), float(speeds.max()) * t_max)
+            L_need = self.period_factor * max(4.0 * a.max(), speed_max * _longest_time(material))
             period = min(_next_pow2(max(L_need / dx, 2 * window)), MAX_LINE_CELLS) * dx
         return FixedGrid(dx, window, period=period)
+
+    # ---- per-regime buckets -----------------------------------------------------------------------
+
+    def point_cells(self, material, layer, radius, loads, speeds, geometry) -> tuple:
+        """``(cells, sizes)``: for each point ``(loads[i], speeds[i])`` (concrete arrays of one
+        length) the cells per estimated contact radius (sphere) or half-width (cylinder) that
+        the full model's rule asks for at that point alone (what :meth:`sphere` / :meth:`line`
+        with ``model="full"`` give for ``loads=[P_i], speeds=[V_i]``: by the regime, at least
+        ``2 r/H`` on a finite layer; ``cells_per_radius`` where given), and its estimated size
+        [m]. Host NumPy arrays."""
+        loads = np.atleast_1d(np.asarray(loads, float)).ravel()
+        speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), loads.shape)
+        _envelope(loads, speeds)
+        r = _sizes(material, layer, radius, loads, geometry)
+        if self.cells_per_radius is not None:
+            return np.full(r.shape, self.cells_per_radius), r
+        zb = np.asarray(_point_regime_table(material, jnp.asarray(speeds), jnp.asarray(r)))
+        zeta, breadth = np.where(speeds > 0, zb[:, 0], 1.0), np.where(speeds > 0, zb[:, 1], 0.0)
+        if geometry == "sphere":
+            cells = _rule_cells_array(zeta, breadth, "sphere", SPHERE_ERROR_CELLS, MAX_SPHERE_RULE_CELLS)
+        else:
+            cells = _rule_cells_array(zeta, breadth, "cylinder", LINE_ERROR_CELLS, LINE_ERROR_CELLS[-1])
+        H = float(np.asarray(layer.H))
+        if math.isfinite(H):
+            cells = np.maximum(cells, [_cells(2.0 * ri / H) for ri in r])
+        return cells, r
+
+    def buckets(self, material, layer, radius, loads, speeds, geometry) -> list:
+        """The points ``(loads[i], speeds[i])`` grouped by the grid the full model's rule asks
+        for at each point alone (:meth:`point_cells`: its cells per radius and its estimated
+        size): ``[(grid, indices), ...]``, coarsest class first. Each grid is that of every one
+        of its points (an automatic period: long enough for the bucket's fastest point), so a
+        batch solved per bucket gives the per-point numbers. Buckets of one class share the
+        window (static) and differ only in the cell size (a traced value), hence one compiled
+        program per class; a temperature x speed map at one load has one bucket per class."""
+        cells, r = self.point_cells(material, layer, radius, loads, speeds, geometry)
+        speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), r.shape)
+        build = self._sphere_grid if geometry == "sphere" else self._line_grid
+        out = []
+        for c, size in sorted(set(zip(cells.tolist(), r.tolist()))):
+            idx = np.flatnonzero((cells == c) & (r == size))
+            out.append((build(r[idx], int(c), float(speeds[idx].max()), material), idx))
+        return out
 
 
 def line_cells_per_radius(zeta: float) -> int:
@@ -658,6 +710,15 @@ def _rule_cells(zeta, breadth, geometry, ladder, cap):
     return fit[0] if fit else cap
 
 
+def _rule_cells_array(zeta, breadth, geometry, ladder, cap) -> np.ndarray:
+    """:func:`_rule_cells` at every ``(zeta[i], breadth[i])`` at once."""
+    ladder = np.asarray(ladder)
+    err = np.asarray(dissipation_error(np.asarray(zeta, float)[:, None], ladder[None, :].astype(float), geometry,
+                                       np.asarray(breadth, float)[:, None]))
+    fit = (err <= TARGET_ERROR) & (ladder <= cap)[None, :]
+    return np.where(fit.any(axis=1), ladder[np.argmax(fit, axis=1)], cap)
+
+
 def sphere_cells_per_radius(zeta: float, breadth: float = 0.0) -> int:
     """Cells per estimated contact radius of the full 3D model at regime ``(zeta, breadth)``
     (:func:`regime`): the fewest of 12, 16, 20, 24, 32, 48 whose :func:`dissipation_error` is
@@ -677,6 +738,11 @@ def cylinder_cells_per_radius(zeta: float, breadth: float = 0.0) -> int:
 @eqx.filter_jit
 def _regime_table(material, speeds, sizes):
     return jax.vmap(lambda V: jax.vmap(lambda a: jnp.stack(regime(material, V, a)))(sizes))(speeds)
+
+
+@eqx.filter_jit
+def _point_regime_table(material, speeds, sizes):
+    return jax.vmap(lambda V, a: jnp.stack(regime(material, V, a)))(speeds, sizes)
 
 
 def _regimes(material, speeds, sizes):

@@ -95,9 +95,13 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
         radius [m], load [N, or N/m for a cylinder]; temperatures [K], speeds [m/s]: 1D axes.
         geometry: ``"sphere"`` or ``"cylinder"``.
         method: a method object or shortcut; default :func:`jaxroll.methods.default_method`
-            (the full model on an infinite layer). A method with an
-            :class:`~jaxroll.grids.AutoGrid` gets one grid for the whole map: the union of the
-            grids resolved at the lowest and the highest temperature. The periodic full models
+            (the full model on an infinite layer). A full model with an
+            :class:`~jaxroll.grids.AutoGrid` on a layer without inertia solves each point on
+            the grid its rule asks for at that point alone (:meth:`~jaxroll.grids.AutoGrid.buckets`:
+            the points grouped by cells per radius, one compiled program and one warm-started
+            scan per class, so each value is the front door's at that point); other methods
+            with an AutoGrid get one grid for the whole map, the union of the grids resolved
+            at the lowest and the highest temperature. The periodic full models
             need periods of ~20 V tau_max, impractical for spectra of 20 decades; ``"direct"``
             is a screening choice (milliseconds per point, see docs/methods.md for its error
             against the full model).
@@ -153,7 +157,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     N or N/m) of a temperature-shifted material on ``layer``, with ``dR_r/dT``, ``dR_r/dH``
     (the thickness of the layer, or of the top ply of a layer-like object) and the derivative
     along each of ``directions`` (pytrees shaped like ``material``: tangents of its parameters),
-    all in one compiled program; the points are solved in the order of the reduced speed
+    one compiled program per grid class; the points are solved in the order of the reduced speed
     ``V a_T`` and then the load. ``measured_temperatures``/``measured_frequencies``: as in
     :func:`resistance_map` (points outside are ``RESULTS.outside_measured_range``)."""
     import time
@@ -170,40 +174,72 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     material.checked(), layer.checked()
     if not np.all(T > 0):
         raise ValueError("temperatures must be positive [K]")
-    method = _map_method(method, material, shift, layer, radius, P, T, V, geometry)
-    # solved in the order of the reduced speed V a_T, then the load: under time-temperature
-    # superposition the contact depends on T and V through it (up to the layer's inertia)
-    order = jnp.asarray(np.lexsort((P, np.round(np.log(V) + np.asarray(shift.log_shift(jnp.asarray(T))), 12))))
+    # under time-temperature superposition the contact depends on T and V through the reduced
+    # speed V a_T (up to the layer's inertia): each class is solved in that order, then the load
+    Vr = V * np.exp(np.asarray(shift.log_shift(jnp.asarray(T))))
     directions = tuple(directions)
-    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(P), jnp.asarray(T),
-            jnp.asarray(V), order, directions)
-    static = dict(geometry=geometry, reduced=_reduced(method, layer))
-    program = _map_program.lower(*args, **static).compile()
+    programs = [_bucket_program(m, idx, Vr, P, T, V, material, shift, layer, radius, directions, geometry, reduced)
+                for m, idx, reduced in _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry)]
+    v, code, dT, dH, a = (np.empty(T.size) for _ in range(5))
+    dd = np.empty((len(directions), T.size))
     t0 = time.perf_counter()
-    v, code, dT, dH, dd, a = (np.asarray(x) for x in jax.block_until_ready(program(*args, **static)))
-    seconds = (time.perf_counter() - t0) / v.size
+    outs = [jax.block_until_ready(call(*args)) for call, args, _ in programs]
+    seconds = (time.perf_counter() - t0) / T.size
+    for (_, _, idx), out in zip(programs, outs):
+        k = idx.size
+        for dest, x in zip((v, code, dT, dH, a), (out[0], out[1], out[2], out[3], out[5])):
+            dest[idx] = np.asarray(x)[:k]
+        dd[:, idx] = np.asarray(out[4])[:, :k]
     outside = _outside_measured(shift, T, V, a, measured_temperatures, measured_frequencies)
     code = np.where(outside & (code == RESULTS.successful), RESULTS.outside_measured_range, code).astype(int)
     return MapPoints(v, code, code == RESULTS.successful, dT, dH, dd, a, seconds)
 
 
-def _map_method(method, material, shift, layer, radius, P, T, V, geometry):
-    """The method of a map: a method with an :class:`~jaxroll.grids.AutoGrid` gets one grid, the
-    union of the grids resolved at the lowest and the highest temperature over every load."""
+def _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry) -> list:
+    """``[(method, point indices, reduced)]`` of a map: a full model with an
+    :class:`~jaxroll.grids.AutoGrid` on a layer without inertia gets one grid per class of the
+    points (:meth:`~jaxroll.grids.AutoGrid.buckets`: the grid the rule asks for at each point
+    alone, the reference material at the reduced speed ``Vr``); other methods with an AutoGrid
+    one grid, the union of the grids resolved at the lowest and the highest temperature over
+    every load; ``reduced``: :func:`_reduced`."""
     from .grids import union
     from .materials.material import at_temperature
     from .methods import as_method, default_method
 
     method = as_method(default_method(geometry) if method is None else method)
     method.check_geometry(geometry)
-    if method.needs_resolution(geometry):
-        loads = np.unique(P)
-        method = eqx.tree_at(lambda m: m.grid, method, union([
-            method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=loads,
+    reduced = _reduced(method, layer)
+    everything = np.arange(T.size)
+    if method.needs_resolution(geometry) and reduced:
+        out = [(eqx.tree_at(lambda m: m.grid, method, g), idx, reduced)
+               for g, idx in method.grid.buckets(material, layer, radius, P, Vr, geometry)]
+    elif method.needs_resolution(geometry):
+        out = [(eqx.tree_at(lambda m: m.grid, method, union([
+            method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=np.unique(P),
                            speeds=jnp.asarray(np.unique(V)), geometry=geometry).grid
-            for Ti in (float(np.min(T)), float(np.max(T)))]))
-    method.check_memory(geometry)
-    return method
+            for Ti in (float(np.min(T)), float(np.max(T)))])), everything, reduced)]
+    else:
+        out = [(method, everything, reduced)]
+    for m, _, _ in out:
+        m.check_memory(geometry)
+    return out
+
+
+def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, directions, geometry, reduced):
+    """``(call, args, points)`` of :func:`_map_program` compiled for the points ``idx`` in the
+    order of the reduced speed ``Vr`` and then the load (``points``: them in that order, the
+    order of the outputs' first ``len(idx)`` entries), padded (:func:`jaxroll.buckets.padded`)
+    so that classes of other sizes share the program, kept by its static configuration and
+    shapes (:func:`jaxroll.buckets.compiled`: a new material value, cell size or temperature
+    compiles nothing)."""
+    from .buckets import compiled, padded
+
+    idx = idx[np.lexsort((P[idx], np.round(np.log(Vr[idx]), 12)))]
+    pad, count = padded(idx)
+    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(P[pad]),
+            jnp.asarray(T[pad]), jnp.asarray(V[pad]), jnp.asarray(count), directions)
+    call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced))
+    return call, args, idx
 
 
 def _outside_measured(shift, T, V, a, measured_temperatures, measured_frequencies) -> np.ndarray:
@@ -255,11 +291,12 @@ def _reduced(method, layer) -> bool:
 
 
 @eqx.filter_jit
-def _map_program(method, material, shift, layer, R, P, T, V, order, directions, *, geometry, reduced):
+def _map_program(method, material, shift, layer, R, P, T, V, count, directions, *, geometry, reduced):
     """Values, result codes, ``dR/dT``, ``dR/dH``, the derivatives along the material
-    ``directions`` and contact radii at the points ``(T, V, P)`` (1D), all points by
-    :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in ``order`` (the full models: one
-    ``lax.scan``, each point warm-started from the previous one). The derivatives are forward
+    ``directions`` and contact radii at the points ``(T, V, P)`` (1D), the first ``count`` by
+    :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in the given order (the full models:
+    one ``lax.scan``, each point warm-started from the previous one; the rest is padding, not
+    solved). The derivatives are forward
     mode: the tangent ``dT = 1`` at every point gives every ``dR_i/dT_i`` at once (each point
     depends on its own temperature only; the warm starts carry no derivative), ``dH = 1`` every
     ``dR_i/dH``, a material tangent every derivative along it."""
@@ -271,9 +308,9 @@ def _map_program(method, material, shift, layer, R, P, T, V, order, directions, 
         mats = jax.vmap(lambda t: at_temperature(mat, shift, t).checked())(T)
         if reduced:  # the reference material at V a_T (see _reduced)
             res = method.evaluate_points(mat, lay, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, 0, 0), order=order)
+                                         geometry, axes=(None, None, None, 0, 0), count=count)
         else:
-            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, 0, 0), order=order)
+            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, 0, 0), count=count)
         res = jax.vmap(lambda r, m, p, v: _validated(method, m, lay, r, R, p, v, geometry))(res, mats, P, V)
         return res.value, (res.result, res.contact_radius)
 

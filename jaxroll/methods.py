@@ -73,15 +73,17 @@ class AbstractMethod(eqx.Module):
                            speeds)
 
     def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0),
-                        order=None) -> RollingResult:
+                        order=None, count=None) -> RollingResult:
         """``R_r`` at ``n`` points: each of ``material``, ``layer``, ``R`` [m], ``P`` [N or
         N/m], ``V`` [m/s] is batched along a leading axis of length ``n`` (``axes`` entry 0:
         every array leaf has it; scalar leaves are shared, so ``jr.Layer(H=thicknesses)`` keeps
         its Python-float ``rho = 0``, the quasi-static formulation) or shared by every point
         (``None``). ``order``: a permutation of ``range(n)``, the order the points are solved
         in (methods that warm-start along the batch, :meth:`Full.evaluate_points`); results
-        are in the given point order either way. Default: ``jax.vmap`` of :meth:`evaluate`."""
-        del order
+        are in the given point order either way. ``count``: solve only the first ``count``
+        points of that order (:meth:`Full.evaluate_points`); the default evaluates all.
+        Default: ``jax.vmap`` of :meth:`evaluate`."""
+        del order, count
         args = (material, layer, R, P, V)
         _batch_size(args, axes)
         in_axes = tuple(None if ax is None else jax.tree_util.tree_map(lambda x: 0 if np.ndim(x) else None, a)
@@ -324,10 +326,12 @@ class Full(_GridMethod):
 
         return jax.lax.scan(one_speed, _contact.WarmStart.none(shape), speeds)[1]
 
-    def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None):
+    def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None, count=None):
         """``R_r`` at ``n`` points (arguments batched or shared as in
         :meth:`AbstractMethod.evaluate_points`), solved one after the other in a ``lax.scan``
-        along ``order`` (default: as given): each solve starts from the previous point's
+        along ``order`` (default: as given; ``count``, a traced integer: only the first
+        ``count`` points of that order are solved, the others, padding that lets batches of
+        different lengths share one compiled program, come back zero): each solve starts from the previous point's
         solution (:meth:`jaxroll.contact.WarmStart.stretched` by the ratio of the stationary
         size estimates and of the loads), so give an order in which neighbours are alike (e.g.
         sorted by speed, or by reduced speed ``V a_T`` over temperatures). Unlike ``jax.vmap``
@@ -356,12 +360,18 @@ class Full(_GridMethod):
         # material and layer shared: their speed-independent work once (as in evaluate_grid)
         shared = model.kernel_builder(material, layer, self.grid) if axes[0] is None and axes[1] is None else None
 
-        def step(start, xs):
+        def solve(start, xs):
             i, s_next, r_next = xs
             m, l, r, p, v = at(i)
             kernel = (shared or model.kernel_builder(m, l, self.grid))(v)
             s = self._solve(model, kernel, r, p, sizes[i], init=start)
             return _contact.WarmStart.stretched(s.contact, s_next, r_next), model.result(s, self.grid, l, v, m)
+
+        def step(start, xs):
+            if count is None:
+                return solve(start, xs)
+            zeros = jax.tree_util.tree_map(lambda x: jnp.zeros(x.shape, x.dtype), jax.eval_shape(solve, start, xs)[1])
+            return jax.lax.cond(xs[0] < count, solve, lambda s, _: (s, zeros), start, xs)
 
         shape = (self.grid.window,) * self.grid_ndim(geometry)
         out = jax.lax.scan(step, _contact.WarmStart.none(shape), (jnp.arange(n), stretch, ratio))[1]

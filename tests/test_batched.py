@@ -10,6 +10,7 @@ agree to the solver tolerance (``tol = 1e-10`` on the scaled residual, linear so
 """
 
 import functools
+import logging
 
 import jax
 import jax.numpy as jnp
@@ -145,3 +146,68 @@ def test_points_need_one_batch_length():
     with pytest.raises(ValueError, match="one common leading length"):
         SPHERE.evaluate_points(PAPER, jr.Layer(0.03), RADIUS, jnp.ones(3), jnp.ones(4), "sphere",
                                axes=(None, None, None, 0, 0))
+
+
+def _compilations(caplog, fn):
+    """The number of XLA compilations while ``fn()`` runs (jax.log_compiles)."""
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="jax._src.dispatch"), jax.log_compiles(True):
+        fn()
+    return sum("Finished XLA compilation" in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
+def test_map_per_regime_buckets_equal_the_front_door_and_reuse_their_programs(caplog):
+    """A 2 x 2 map of the full 2D model with the automatic grid whose points ask for two grid
+    classes (12 and 25 cells per half-width: zeta >= 0.1 and 0.01-0.1): each class is solved on
+    its own grid, so each value is the per-point front door's (1e-10, the solver tolerance).
+    A map of a material 2 % stiffer (every grid re-sized: new cell sizes, same classes and
+    windows) compiles nothing, nor does the front door re-sized the same way."""
+    from jaxroll.buckets import _PROGRAMS
+
+    wlf = jr.WLF(8.86, 101.6, 293.15)
+    Ts, Vs = np.array([263.15, 293.15]), np.array([1e-4, 1e-2])  # classes 12, 12 / 25, 12
+    layer, kw = jr.Layer(0.01), dict(radius=0.01, load=500.0)
+
+    def the_map(G0):
+        mat = jr.StandardLinearSolid(G0, PAPER.tau, PAPER.f).to_prony()
+        return jr.resistance_map(mat, wlf, layer, temperatures=Ts, speeds=Vs, geometry="cylinder", **kw)
+
+    def front_door(G0, T, V):
+        mat = jr.at_temperature(jr.StandardLinearSolid(G0, PAPER.tau, PAPER.f).to_prony(), wlf, T)
+        return jr.rolling_resistance(mat, layer, speed=V, geometry="cylinder", throw=False, **kw)
+
+    n_programs = len(_PROGRAMS)
+    m = the_map(PAPER.G0)
+    assert len(_PROGRAMS) - n_programs == 2  # two classes, one program each
+    for i, T in enumerate(Ts):
+        for j, V in enumerate(Vs):
+            one = front_door(PAPER.G0, T, V)
+            assert abs(m.value[i, j] / float(one.value) - 1) < 1e-10, (T, V)
+            assert m.result[i, j] == int(one.result) == 0
+    stiffer = float(1.02 * PAPER.G0)
+    assert _compilations(caplog, lambda: the_map(stiffer)) == 0
+    assert _compilations(caplog, lambda: front_door(stiffer, Ts[0], Vs[0])) == 0
+
+
+def test_buckets_are_the_per_point_grids_of_the_quick_reference():
+    """The grid of each bucket is the one the front door's rule resolves for each of its points
+    alone (``Full().resolve`` on that load and speed: the independent path through
+    ``AutoGrid.sphere``), for the quick reproduction's H = 5 mm case (7 speeds x 3 loads); and the
+    quick reference falls back to its fixed grid where the rule's windows exceed
+    ``MAX_RULE_WINDOW`` (H = 10 um), before solving anything."""
+    from jaxroll.apps import reproduce as rp
+
+    s, case = rp.QUICK, rp.CASES["H5mm"]
+    speeds = np.geomspace(*s.speed_range, s.n_speeds)
+    P, V = (a.ravel() for a in np.meshgrid(np.linspace(*case.loads, s.n_loads), speeds, indexing="ij"))
+    layer = jr.Layer(case.H)
+    buckets = jr.Full().grid.buckets(rp._material(), layer, case.R, P, V, "sphere")
+    assert sorted(np.concatenate([i for _, i in buckets]).tolist()) == list(range(P.size))
+    assert len({g.window for g, _ in buckets}) >= 2  # several classes over four decades of speed
+    for grid, idx in buckets:
+        for i in idx:
+            own = jr.Full().resolve(rp._material(), layer, radius=case.R, loads=[P[i]], speeds=[V[i]]).grid
+            assert own.window == grid.window and abs(own.spacing / grid.spacing - 1) < 1e-12, (P[i], V[i])
+    tiny = rp.CASES["H10um"]
+    assert rp._run_rule_reference(tiny, np.linspace(*tiny.loads, 2), speeds[:2]) is None

@@ -97,6 +97,11 @@ class Settings:
             (paper 500); period: ``L`` [m] of the slices (paper 0.2 m); reference_period: ``L``
             [m] of the 3D reference (paper 0.2 m), or ``None`` for an infinite layer (a single
             roller: aperiodic kernels, never ``period_too_short``).
+        reference_grid: ``"fixed"`` (one grid of ``spacing`` for every point) or ``"rule"``
+            (infinite layer: each point on the grid the full model's regime rule asks for at
+            that point alone, :meth:`jaxroll.grids.AutoGrid.buckets`, so the reference is as
+            accurate as the default front door at every point; ``spacing``, ``n_terms`` and
+            ``reference_period`` are then unused).
         slice_cells, slice_window: cells per period and window cells of the 2D slices;
             n_slices: number of slices (paper 21).
         direct_rtol: relative accuracy of the direct method's aperiodic quadrature.
@@ -112,6 +117,7 @@ class Settings:
     n_terms: int = 500
     period: float = 0.2
     reference_period: float | None = 0.2
+    reference_grid: str = "fixed"
     slice_cells: int = 2**10
     slice_window: int = 160
     n_slices: int = 21
@@ -124,15 +130,15 @@ class Settings:
 
 #: The paper's resolution (23 speeds x 15 loads, 0.25 mm cells, 500 terms).
 FULL = Settings()
-#: Reduced run: 7 speeds 1e-3..1 m/s x 3 loads, an aperiodic 3D reference on 0.5 mm cells, slices
-#: on 512 cells with 11 slices. The reference is chosen valid at every point of H = 2, 5, 30 mm
-#: (measured): the paper's 0.2 m period is too short above ~0.01 m/s (V tau > L/20), and 0.5 mm
-#: cells do not resolve the contact edge that carries R_r at 1e-4..5e-4 m/s (moment and
-#: dissipation forms more than 10 % apart). H = 10 um is not valid there (see the report).
+#: Reduced run: 7 speeds 1e-3..1 m/s x 3 loads, an aperiodic 3D reference on the grids of the
+#: regime rule (per point: 12-24 cells per contact radius here, so it is valid at every point of
+#: H = 2, 5, 30 mm; a fixed 0.5 mm grid has ~11 cells per radius, below what the rule asks for at
+#: 1e-3 m/s, and was flagged truncation_too_large there), slices on 512 cells with 11 slices.
+#: H = 10 um is not valid there (see the report).
 QUICK = Settings(n_speeds=7, n_loads=3, speed_range=(1e-3, 1.0), spacing=5e-4, n_terms=250, reference_period=None,
-                 slice_cells=2**9, slice_window=80, n_slices=11,
-                 label="quick (reduced: 7 speeds 1e-3..1 m/s x 3 loads, aperiodic 3D reference on 0.5 mm cells, "
-                       "slices 512 cells / 11 slices)")
+                 reference_grid="rule", slice_cells=2**9, slice_window=80, n_slices=11,
+                 label="quick (reduced: 7 speeds 1e-3..1 m/s x 3 loads, aperiodic 3D reference on the regime "
+                       "rule's grids, slices 512 cells / 11 slices)")
 
 
 @dataclasses.dataclass
@@ -279,7 +285,32 @@ def _run(method, case: Case, loads, speeds, cache: dict) -> MethodResult:
     return MethodResult(np.asarray(v), np.asarray(st), c, time.perf_counter() - t)
 
 
+#: Largest window (cells per side) of the regime rule's reference grids; a case whose rule asks
+#: for more (H = 10 um: the rule's 2 r/H cells per radius give windows of ~2000 cells) falls back
+#: to the fixed grid of the settings.
+MAX_RULE_WINDOW = 255
+
+
+def _run_rule_reference(case: Case, loads, speeds) -> MethodResult | None:
+    """The full 3D reference on an infinite layer with each point on the grid of the regime rule
+    (:func:`jaxroll.buckets.evaluate_buckets`: the points grouped by grid, one compiled program
+    per class of cells per radius); ``None`` where a grid would exceed :data:`MAX_RULE_WINDOW`."""
+    import jaxroll as jr
+    from jaxroll.buckets import evaluate_buckets
+
+    P, V = (a.ravel() for a in np.meshgrid(loads, speeds, indexing="ij"))
+    method, material, layer = jr.Full(), _material(), jr.Layer(case.H)
+    buckets = method.grid.buckets(material, layer, case.R, P, V, "sphere")
+    if max(g.window for g, _ in buckets) > MAX_RULE_WINDOW:
+        return None
+    v, st, c, r = evaluate_buckets(method, material, layer, case.R, P, V, "sphere", buckets=buckets)
+    return MethodResult(v.reshape(len(loads), len(speeds)), st.reshape(len(loads), len(speeds)), c, r)
+
+
 def _reference_period(s: Settings) -> str:
+    if s.reference_grid == "rule":
+        return (f"infinite layer (aperiodic kernels), each point on the grid of the regime rule (a case whose rule "
+                f"asks for windows over {MAX_RULE_WINDOW} cells: cells a = {s.spacing * 1e3:g} mm)")
     if s.reference_period is None:
         return "infinite layer (aperiodic kernels)"
     return f"period L = {s.reference_period} m, {s.n_terms} Fourier terms per axis"
@@ -370,13 +401,19 @@ def run(settings: Settings = FULL, *, progress=sys.stderr) -> Reproduction:
     speeds = np.geomspace(s.speed_range[0], s.speed_range[1], s.n_speeds)
     window = _full_window(s, cases)
     log(f"jaxroll reproduce: {s.label}; {len(cases)} case(s), {s.n_speeds} speeds x {s.n_loads} loads; "
-        f"3D window {window}^2 cells of {s.spacing * 1e3:g} mm, {_reference_period(s)}")
+        + (f"3D reference: {_reference_period(s)}" if s.reference_grid == "rule" else
+           f"3D window {window}^2 cells of {s.spacing * 1e3:g} mm, {_reference_period(s)}"))
     cache: dict = {}
     out = []
     for case in cases:
         loads = np.linspace(case.loads[0], case.loads[1], s.n_loads)
         log(f"{case.label}: full 3D reference ({s.n_loads} x {s.n_speeds}) ...")
-        ref = _run(full_method(s, window), case, loads, speeds, cache)
+        ref = _run_rule_reference(case, loads, speeds) if s.reference_grid == "rule" else None
+        if ref is None:
+            if s.reference_grid == "rule":
+                log(f"{case.label}: the regime rule's grid exceeds {MAX_RULE_WINDOW} cells per side: the fixed "
+                    f"{s.spacing * 1e3:g} mm grid (window {window})")
+            ref = _run(full_method(s, window), case, loads, speeds, cache)
         log(f"{case.label}: full 3D done: run {_fmt_time(ref.run_s)}, compile {_fmt_time(ref.compile_s)}; "
             f"{_invalid(ref.status)}")
         res = {}
@@ -559,8 +596,9 @@ def _report_lines(rep: Reproduction, figs: dict) -> list:
         "",
         f"Material: standard linear solid G0 = {G0 / 1e6:g} MPa, tau = {TAU:g} s, f = {F:g} ([ZG] eq. 12); "
         "quasi-static incompressible layer (rho = 0, nu = 0.5); no friction.",
-        f"Reference: full 3D model, cells a = {s.spacing * 1e3:g} mm, {_reference_period(s)} "
-        f"(paper: 0.25 mm, period 0.2 m, 500 terms). Slices PD/PP/SP: {s.n_slices} slices, 2D period {s.period} m on "
+        "Reference: full 3D model, "
+        + ("" if s.reference_grid == "rule" else f"cells a = {s.spacing * 1e3:g} mm, ")
+        + f"{_reference_period(s)} (paper: 0.25 mm, period 0.2 m, 500 terms). Slices PD/PP/SP: {s.n_slices} slices, 2D period {s.period} m on "
         f"{s.slice_cells} cells (window {s.slice_window} cells). Direct: aperiodic limit (rtol {s.direct_rtol:g}), "
         "automatic stationary pressure (Jaffar thick layer, thin layer for 10 um).",
         "Relative error = method / full 3D - 1 (positive: the method overestimates R_r). Every statistic and "

@@ -76,10 +76,13 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
         system: the stopped system (:meth:`ContactSystem.stopped`).
         mask0: initial contact set; ``x0``: initial scaled unknowns.
         solver: an :class:`~jaxroll.contact.linear.AbstractLinearSolver`.
-        precond: ``mask -> M`` (or ``None``-returning) for the active-set systems.
+        precond: ``mask -> M`` or a pair ``(M_cheap, M_whole)`` (or ``None``-returning) for the
+            active-set systems.
 
     Returns:
-        ``(mask, x, iterations, converged)``.
+        ``(mask, x, iterations, converged, robust)``; ``robust``: whether a linear solve needed
+        the robust level of the preconditioner pair (from then on the steps use it from the
+        start, :meth:`~jaxroll.contact.linear.AbstractLinearSolver.solve_tracked`).
     """
     strict = tol * 1e-3
     loose = max(strict, LOOSE_LINEAR_RTOL)
@@ -87,15 +90,15 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
 
     def step(state, aux):
         mask, is_strict = state
-        x, k = aux
+        x, k, robust = aux
         rtol = jnp.where(is_strict, strict, loose)
         margin = jnp.where(is_strict, eps, 100.0 * loose)
-        x = solver.solve(system.matvec(mask), system.rhs(mask), x, precond(mask), rtol)
+        x, robust = solver.solve_tracked(system.matvec(mask), system.rhs(mask), x, precond(mask), rtol, robust)
         pt = x[:-1].reshape(system.shape)
         new = jnp.where(mask, pt > -margin, system.gap(pt, x[-1]) < -margin)
         turn = jnp.all(new == mask) | (k + 1 >= max_steps)
-        return (new, is_strict | turn), (x, k + 1)
+        return (new, is_strict | turn), (x, k + 1, robust)
 
-    (mask, _), (x, _), iters, done = active_set_loop(step, (mask0, jnp.asarray(loose <= strict)),
-                                                     (x0, jnp.asarray(0)), 2 * max_steps)
-    return jax.lax.stop_gradient(mask), jax.lax.stop_gradient(x), iters, done
+    (mask, _), (x, _, robust), iters, done = active_set_loop(
+        step, (mask0, jnp.asarray(loose <= strict)), (x0, jnp.asarray(0), jnp.asarray(False)), 2 * max_steps)
+    return jax.lax.stop_gradient(mask), jax.lax.stop_gradient(x), iters, done, robust

@@ -40,12 +40,16 @@ __all__ = ["AbstractLinearSolver", "GMRES", "Dense"]
 RESTART_PRECONDITIONED = 32
 RESTART_PLAIN = 80
 #: Basis size of the fallback solve (:class:`GMRES` ``fallback_restart``), from where the first
-#: stopped, when the first misses its tolerance: a safeguard (with GMRES(12) and a folded
-#: preconditioner it rescued the 24-32 cells-per-radius solves that stagnated at a relative
-#: residual of 1e-2..1e-4 and made the active set cycle; GMRES(96) reached 1e-13 in one cycle).
+#: stopped, when the first misses its tolerance (with GMRES(12) and a folded preconditioner it
+#: rescued the 24-32 cells-per-radius solves that stagnated at a relative residual of 1e-2..1e-4
+#: and made the active set cycle; GMRES(96) reached 1e-13 in one cycle); with a preconditioner
+#: pair it also switches to the robust level.
 FALLBACK_RESTART = 96
-#: Restart cycles of the first solve before it hands over to the fallback.
-FIRST_SOLVE_CYCLES = 8
+#: Restart cycles of the first solve (with the cheap, folded preconditioner of a pair) before it
+#: hands over to the fallback (with the whole embedding's, then used from the start by the later
+#: solves of the contact solve): 32 Krylov iterations, what an easy solve (off the resistance peak,
+#: coarse grids) needs with the folded one, so the harder ones switch after one cycle.
+FIRST_SOLVE_CYCLES = 1
 #: Krylov iterations of a solve without fallback (restarts = this // restart), and of the fallback
 #: solve (which follows at most ``FIRST_SOLVE_CYCLES`` cycles of the first).
 MAX_KRYLOV_ITERATIONS = 1600
@@ -71,9 +75,19 @@ class AbstractLinearSolver(eqx.Module):
             matvec: ``v -> A v`` (linear).
             b: right-hand side, shape ``(n,)``.
             x0: start (``None``: zero); ignored by direct solvers.
-            precond: ``v -> M v`` with ``M ~ A^-1``, or ``None``.
+            precond: ``v -> M v`` with ``M ~ A^-1``, or ``None``; or a pair ``(cheap, robust)``:
+                :class:`GMRES` solves first with ``cheap`` and falls back to ``robust`` where
+                that stagnates (:mod:`jaxroll.contact.precondition`).
             rtol: relative residual tolerance (traced allowed).
         """
+
+
+    def solve_tracked(self, matvec, b, x0, precond, rtol, robust) -> tuple:
+        """``(x, robust)``: :meth:`solve`, for a sequence of related systems (the steps of one
+        contact solve) that share what the solver learned: ``robust`` (traced bool) says that an
+        earlier solve needed the robust level of a preconditioner pair, and comes back true once
+        one did. Default: :meth:`solve`, ``robust`` unchanged."""
+        return self.solve(matvec, b, x0, precond, rtol), robust
 
 
 class GMRES(AbstractLinearSolver):
@@ -85,7 +99,8 @@ class GMRES(AbstractLinearSolver):
         max_restarts: restart cycles per solve (default ``MAX_KRYLOV_ITERATIONS // restart``; with a
             fallback, :data:`FIRST_SOLVE_CYCLES` before it takes over).
         fallback_restart: basis size of a second solve, from where the first stopped, run only
-            when the first missed the tolerance (default :data:`FALLBACK_RESTART` with the
+            when the first missed the tolerance, with the robust level of a preconditioner pair
+            (the whole embedding's inverse; the first solve uses the cheap, folded one) (default :data:`FALLBACK_RESTART` with the
             preconditioner, none without; ``0``: none). It is skipped where the first solve
             converges (under ``vmap`` it runs for every lane once one lane needs it), and makes
             the solves robust at fine resolution, where a short basis stagnates.
@@ -123,22 +138,31 @@ class GMRES(AbstractLinearSolver):
         return bool(self.preconditioner)
 
     def solve(self, matvec, b, x0, precond, rtol):
-        # right preconditioning: the stopping test is on the true residual |b - A x| <= rtol |b|
+        return self.solve_tracked(matvec, b, x0, precond, rtol, None)[0]
+
+    def solve_tracked(self, matvec, b, x0, precond, rtol, robust):
+        # right preconditioning: the stopping test is on the true residual |b - A x| <= rtol |b|.
+        # A pair (cheap, robust): the first solve with the cheap level, skipped (no cycle) once an
+        # earlier solve of the sequence needed the robust one; the fallback with the robust level
         x0 = jnp.zeros_like(b) if x0 is None else x0
         atol = rtol * jnp.linalg.norm(b)
-        precond = precond if self.preconditioned else None
-        x, res = gmres(matvec, b, x0, atol=atol, precond=precond, restart=self.restart, maxiter=self.max_restarts)
+        first, second = precond if isinstance(precond, tuple) else (precond, precond)
+        first, second = (first, second) if self.preconditioned else (None, None)
+        cycles = self.max_restarts
+        if robust is not None and self.fallback_restart and isinstance(precond, tuple):
+            cycles = jnp.where(robust, 0, cycles)
+        x, res = gmres(matvec, b, x0, atol=atol, precond=first, restart=self.restart, maxiter=cycles)
         if not self.fallback_restart:
-            return x
+            return x, robust
 
         def fallback(c):  # at most one pass, in a while loop so that it is skipped when not needed
             x, _, _ = c
-            x, res = gmres(matvec, b, x, atol=atol, precond=precond, restart=self.fallback_restart,
+            x, res = gmres(matvec, b, x, atol=atol, precond=second, restart=self.fallback_restart,
                            maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart))
             return x, res, jnp.asarray(True)
 
-        x, _, _ = jax.lax.while_loop(lambda c: (c[1] > atol) & ~c[2], fallback, (x, res, jnp.asarray(False)))
-        return x
+        x, _, fell_back = jax.lax.while_loop(lambda c: (c[1] > atol) & ~c[2], fallback, (x, res, jnp.asarray(False)))
+        return x, (None if robust is None else robust | fell_back)
 
 
 class Dense(AbstractLinearSolver):

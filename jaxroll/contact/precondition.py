@@ -12,14 +12,19 @@ every window offset once, none aliased; divided by its Fourier multiplier) and a
 ``w_out`` elsewhere. It is built from ``stop_gradient`` data: it changes the GMRES iterations,
 never the converged solution, so the implicit derivatives do not depend on it.
 
-Why the whole embedding: a period of about one window (the coefficients folded onto ``W + 1``
-points per axis, a quarter of the cost per application) aliases the long-range part of the
-viscoelastic kernel, strongest near the resistance peak, and the preconditioned spectrum spreads
-as the grid is refined. Measured on a half-space sphere (SLS f = 1, ``zeta = V tau/a0 = 1``,
-operator applications per solve, GMRES(32)): folded 112 / 215 / 2879 at 12 / 24 / 48 cells per
-radius, the whole embedding 118 / 173 / 150; at 1.5 windows still 940 at 48 cells. The same
-preconditioner (transposed for the adjoint) serves the implicit-differentiation solves and, with
-the soft-min weights, the Newton steps of the smoothed contact edge.
+Two levels, cheap first: the coefficients folded onto a period of about one window (``W + 1``
+points per axis, :func:`folded_size`; a quarter of the cost per application) are applied first,
+and the inverse of the whole embedding only where a solve stagnates with them
+(:class:`~jaxroll.contact.linear.GMRES` takes the pair: the first solve with the folded one, its
+fallback from where it stopped with the whole embedding's). Folding aliases the long-range part
+of the viscoelastic kernel, strongest near the resistance peak, and the preconditioned spectrum
+spreads as the grid is refined. Measured on a half-space sphere (SLS f = 1, ``zeta = V tau/a0 =
+1``, operator applications per solve, GMRES(32)): folded 112 / 215 / 2879 at 12 / 24 / 48 cells
+per radius, the whole embedding 118 / 173 / 150; at 1.5 windows still 940 at 48 cells. So the
+folded one serves the coarse grids and most points of a table at a lower cost, the whole one
+the fine grids near the peak. The same pair (transposed for the adjoint) serves the
+implicit-differentiation solves and, with the soft-min weights, the Newton steps of the smoothed
+contact edge.
 """
 
 from __future__ import annotations
@@ -28,10 +33,16 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .operator import WindowedCompliance, circulant_window_apply
+from .operator import WindowedCompliance, _smooth_size, circulant_window_apply, fold_offsets
 from .system import ContactSystem, flat
 
-__all__ = ["CirculantPreconditioner"]
+__all__ = ["CirculantPreconditioner", "folded_size"]
+
+
+def folded_size(window: int) -> int:
+    """FFT size of the cheap preconditioner's period on a ``window``-cell axis: the smallest
+    ``2^a 3^b 5^c 7^d >= W + 1``, about half the exact embedding (a quarter of its points in 2D)."""
+    return _smooth_size(int(window) + 1)
 
 #: Floor of the modulus of the preconditioner's Fourier multiplier, relative to its maximum.
 #: The multiplier can vanish: ``K_0 = 0`` (zero-mean periodic displacement) makes the sum of the
@@ -47,38 +58,42 @@ class CirculantPreconditioner(eqx.Module):
 
     Attributes:
         inverse_multiplier: Fourier multiplier of the inverse of the circulant embedding.
+        folded_multiplier: Fourier multiplier of the inverse of the coefficients folded onto
+            :func:`folded_size` per axis (the cheap level).
         scale: ``g_s/p_s`` (the system's operator is ``C p~ (p_s/g_s)``).
-        embedding: static FFT sizes of the embedding.
+        embedding, folded: static FFT sizes of the embedding and of the folded period.
         shape: static window shape.
     """
 
     inverse_multiplier: jax.Array
+    folded_multiplier: jax.Array
     scale: jax.Array
     embedding: tuple = eqx.field(static=True)
+    folded: tuple = eqx.field(static=True)
     shape: tuple = eqx.field(static=True)
 
     @classmethod
     def build(cls, compliance: WindowedCompliance, system: ContactSystem) -> "CirculantPreconditioner":
         sg = jax.lax.stop_gradient
-        shape = compliance.shape
-        emb = compliance.embedding
-        mult = sg(compliance.multiplier)  # the embedding that applies C (rfftn of its coefficients)
-        mod = jnp.abs(mult)
-        floor = PRECONDITIONER_FLOOR * jnp.max(mod)
-        big = mod >= floor
-        one = jnp.ones_like(mult)
-        phase = jnp.where(mod > 0, jnp.conj(mult) / jnp.where(mod > 0, mod, 1.0).astype(mult.dtype), one)
-        inv = jnp.where(big, one / jnp.where(big, mult, one), phase / floor.astype(mult.dtype))
-        return cls(inv, sg(system.g_s / system.p_s), emb, shape)
+        folded = tuple(folded_size(w) for w in compliance.shape)
+        # the embedding that applies C (rfftn of its coefficients), and the folded period
+        whole = _inverse(sg(compliance.multiplier))
+        cheap = _inverse(jnp.fft.rfftn(fold_offsets(sg(compliance.offsets), folded)))
+        return cls(whole, cheap, sg(system.g_s / system.p_s), compliance.embedding, folded, compliance.shape)
 
-    def _circulant_inverse(self, r, transpose):
-        mult = jnp.conj(self.inverse_multiplier) if transpose else self.inverse_multiplier
-        return circulant_window_apply(mult, r, self.embedding) * self.scale
+    def _circulant_inverse(self, r, transpose, cheap):
+        mult, emb = (self.folded_multiplier, self.folded) if cheap else (self.inverse_multiplier, self.embedding)
+        mult = jnp.conj(mult) if transpose else mult
+        return circulant_window_apply(mult, r, emb) * self.scale
 
     def block(self, in_set, w_in, w_out, u, v, c, transpose=False):
-        """``M ~ A^-1`` (or ``A^-T``) of the bordered system: rows on ``in_set`` ~ ``w_in`` times the
-        scaled ``C`` on the set, rows off it ~ ``w_out`` times the identity; ``u, v``: window-shaped
-        ``d`` column and last row; ``c``: corner."""
+        """``(M_cheap, M_whole)``, each ``~ A^-1`` (or ``A^-T``) of the bordered system: rows on
+        ``in_set`` ~ ``w_in`` times the scaled ``C`` on the set, rows off it ~ ``w_out`` times the
+        identity; ``u, v``: window-shaped ``d`` column and last row; ``c``: corner. ``M_cheap``
+        inverts the folded coefficients, ``M_whole`` the whole embedding."""
+        return tuple(self._block(in_set, w_in, w_out, u, v, c, transpose, cheap) for cheap in (True, False))
+
+    def _block(self, in_set, w_in, w_out, u, v, c, transpose, cheap):
         mf = in_set.astype(float)
         w_out = jnp.where(in_set, 1.0, w_out)
         w_in = jnp.where(in_set, w_in, 1.0)
@@ -86,10 +101,10 @@ class CirculantPreconditioner(eqx.Module):
             u, v = v, u
 
             def P(r):
-                return mf * self._circulant_inverse(mf * r, True) / w_in + (1.0 - mf) * r / w_out
+                return mf * self._circulant_inverse(mf * r, True, cheap) / w_in + (1.0 - mf) * r / w_out
         else:
             def P(r):
-                return mf * self._circulant_inverse(mf * r / w_in, False) + (1.0 - mf) * r / w_out
+                return mf * self._circulant_inverse(mf * r / w_in, False, cheap) + (1.0 - mf) * r / w_out
 
         Pu = P(u)
         den = c - jnp.sum(v * Pu)
@@ -106,8 +121,19 @@ class CirculantPreconditioner(eqx.Module):
         return M
 
     def active_set(self, system: ContactSystem, mask, transpose=False):
-        """``M`` for the active-set system of :meth:`ContactSystem.matvec` on ``mask``."""
+        """``(M_cheap, M_whole)`` for the active-set system of :meth:`ContactSystem.matvec` on ``mask``."""
         mf = mask.astype(float)
         ones = jnp.ones(self.shape)
         v, c = system.border(mf)
         return self.block(mask, ones, ones, -mf, v, c, transpose)
+
+
+def _inverse(mult):
+    """The inverse of a Fourier multiplier, its modulus floored at :data:`PRECONDITIONER_FLOOR`
+    times its maximum (phase kept)."""
+    mod = jnp.abs(mult)
+    floor = PRECONDITIONER_FLOOR * jnp.max(mod)
+    big = mod >= floor
+    one = jnp.ones_like(mult)
+    phase = jnp.where(mod > 0, jnp.conj(mult) / jnp.where(mod > 0, mod, 1.0).astype(mult.dtype), one)
+    return jnp.where(big, one / jnp.where(big, mult, one), phase / floor.astype(mult.dtype))

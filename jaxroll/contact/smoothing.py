@@ -42,7 +42,9 @@ def _residual(system: ContactSystem, x, c0_ratio, eps):
 
 def _jacobian(system: ContactSystem, a, gt, eps, precond: CirculantPreconditioner | None):
     """``(matvec, preconditioner)`` of the soft-min residual's Jacobian at ``(a, g~)``:
-    ``preconditioner(transpose)`` is ``M`` (or ``M^T``), ``None`` without a preconditioner."""
+    ``preconditioner(transpose)`` is the pair ``(M_cheap, M_whole)`` (or their transposes) of
+    :meth:`~jaxroll.contact.precondition.CirculantPreconditioner.block`, ``None`` without a
+    preconditioner."""
     w_a = jax.nn.sigmoid((gt - a) / eps)  # d smin / d a; d smin / d g = 1 - w_a
     ratio = system.p_s / system.g_s
 
@@ -61,14 +63,16 @@ def _jacobian(system: ContactSystem, a, gt, eps, precond: CirculantPreconditione
     return matvec, preconditioner
 
 
-def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol, max_steps):
+def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol, max_steps, robust=None):
     """Damped Newton on ``smin_eps(c0 p, g) = 0`` from the exact solution ``x_exact``.
 
     Args:
         system: the differentiable system (its stopped copy drives the iterations).
         x_exact: the exact (active-set) scaled solution, ``stop_gradient``.
         eps: gap scale [m] (traced allowed).
-        solver, precond: linear solver and preconditioner (or ``None``).
+        solver, precond: linear solver and preconditioner (or ``None``); robust: whether the
+            active set's solves needed the robust level of the preconditioner pair (then every
+            solve here starts with it; :meth:`~jaxroll.contact.linear.AbstractLinearSolver.solve_tracked`).
 
     Returns:
         ``(x, contact, iterations, converged, residual)``: ``x`` differentiable (one Newton
@@ -85,7 +89,7 @@ def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol,
         # trial step: the accepted trial's values become the next iterate's)
         x, (F, a, gt), it, _ = state
         mv, M = _jacobian(fixed, a, gt, eps_t, precond)
-        step = solver.solve(mv, -F, None, M(False), tol * 1e-3)
+        step = solver.solve_tracked(mv, -F, None, M(False), tol * 1e-3, robust)[0]
         trials = jax.vmap(lambda al: _residual(fixed, x + al * step, 1.0, eps_t))(_ALPHAS)
         merit = jnp.sum(trials[0] ** 2, axis=1)
         ok = merit <= (1.0 - 1e-4 * _ALPHAS) * jnp.sum(F * F)  # Armijo on |F|^2
@@ -106,8 +110,8 @@ def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol,
     mv, M = _jacobian(fixed, a_s, gt_s, eps_t, precond)
     x = x_s + jax.lax.custom_linear_solve(
         mv, -F_theta,
-        solve=lambda f, bb: solver.solve(f, bb, None, M(False), tol * 1e-3),
-        transpose_solve=lambda f, bb: solver.solve(f, bb, None, M(True), tol * 1e-3),
+        solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(False), tol * 1e-3, robust)[0],
+        transpose_solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(True), tol * 1e-3, robust)[0],
     )
     return x, sg(gt_s < a_s), n_it, n_done, jnp.max(jnp.abs(F_s))
 

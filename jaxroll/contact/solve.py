@@ -19,7 +19,8 @@ repeats. Each step's linear system is solved by a :mod:`~jaxroll.contact.linear`
 Speed (``benchmarks/bench_sphere3d.py``, the paper's reference case of 345 solves): each solve
 takes ~4-5 active-set steps and ~40 operator applications; an operator application is one FFT
 pair pruned to the window (:func:`~jaxroll.contact.operator.circulant_window_apply`), a
-preconditioner application one FFT pair of the same embedding, and the Krylov bookkeeping
+preconditioner application one FFT pair of the folded period (about a quarter of the points; of
+the same embedding where a solve stagnated, :mod:`~jaxroll.contact.precondition`), and the Krylov bookkeeping
 (:func:`jaxroll._numerics.gmres`) costs less than either.
 
 Differentiation
@@ -266,8 +267,8 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         sg = jax.lax.stop_gradient
         x_init = jnp.where(warm.valid, sg(flat(jnp.where(mask0, warm.pressure, 0.0) / fixed.p_s,
                                                warm.penetration / fixed.g_s)), x_init)
-    mask, x_exact, iters, done = find_contact_set(fixed, mask0, x_init, solver, active_set_precond,
-                                                  tol=tol, max_steps=max_steps)
+    mask, x_exact, iters, done, robust = find_contact_set(fixed, mask0, x_init, solver, active_set_precond,
+                                                          tol=tol, max_steps=max_steps)
     if smoothing is None:
         # x_exact already solves the system on the converged set to 1e-3 tol: it is returned as
         # the root of F(x) = A(theta) x - b(theta), and only the derivatives solve again
@@ -278,15 +279,17 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         def tangent_solve(g, y):
             return jax.lax.custom_linear_solve(
                 g, y,
-                solve=lambda f, bb: solver.solve(f, bb, None, active_set_precond(mask), tol * 1e-3),
-                transpose_solve=lambda f, bb: solver.solve(f, bb, None, active_set_precond(mask, True), tol * 1e-3),
+                solve=lambda f, bb: solver.solve_tracked(f, bb, None, active_set_precond(mask), tol * 1e-3,
+                                                         robust)[0],
+                transpose_solve=lambda f, bb: solver.solve_tracked(f, bb, None, active_set_precond(mask, True),
+                                                                   tol * 1e-3, robust)[0],
             )
 
         x = jax.lax.custom_root(lambda x: mv(x) - b, x_exact, lambda f, x0: x0, tangent_solve)
         residual = _exact_residual(system, x, mask)
     else:
         x, mask, n_it, n_done, residual = smoothed_solve(system, x_exact, smoothing, solver, precond,
-                                                         tol=tol, max_steps=max_steps)
+                                                         tol=tol, max_steps=max_steps, robust=robust)
         iters, done = iters + n_it, done & n_done
     return _solution(system, x, mask, value, iters, done, residual, tol)
 

@@ -59,7 +59,8 @@ import scipy.special as sps
 
 from .. import contact as _contact
 
-__all__ = ["FourierRule", "fourier_rule", "line_window_kernel", "surface_factor", "surface_window_kernel"]
+__all__ = ["FourierRule", "fourier_rule", "line_window_kernel", "surface_factor", "surface_factor_pair",
+           "surface_window_kernel"]
 
 #: Gauss-Legendre nodes per panel.
 NODES_PER_PANEL = 8
@@ -265,20 +266,30 @@ def surface_factor(t_fn, dx, window: int, squared: bool):
     Args:
         t_fn: ``t(q_x, q_y)`` of broadcasting wavenumber arrays [rad/m] (real or complex).
     """
+    return _surface_factors(t_fn, dx, window, (2 if squared else 1,))[0]
+
+
+def surface_factor_pair(t_fn, dx, window: int):
+    """``(A, B)``: :func:`surface_factor` of ``t_fn`` with ``S_y`` and with ``S_y^2``, from one
+    evaluation of ``t`` per node (a layer's speed-independent integrals cost half)."""
+    return _surface_factors(t_fn, dx, window, (1, 2))
+
+
+def _surface_factors(t_fn, dx, window: int, powers):
     rule = fourier_rule(window, W_CUT_SURFACE)
     scale = 2.0 * jnp.pi / dx
     w = rule.w
     K = w.size
     n_chunks = -(-K // SURFACE_CHUNK)
     wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
-    Sy = np.sinc(w) ** (2 if squared else 1)
+    Sy = [np.sinc(w) ** s for s in powers]
 
     def chunk(wxc):
         t = t_fn(scale * wxc[None, :], scale * w[:, None])  # (K_y, chunk)
-        return rule.cosine(t * jnp.asarray(Sy[:, None], t.dtype)).T  # (chunk, W)
+        return tuple(rule.cosine(t * jnp.asarray(S[:, None], t.dtype)).T for S in Sy)  # (chunk, W) each
 
-    A = jax.lax.map(chunk, jnp.asarray(wx))
-    return A.reshape((n_chunks * SURFACE_CHUNK,) + A.shape[2:])[:K]
+    out = jax.lax.map(chunk, jnp.asarray(wx))
+    return tuple(A.reshape((n_chunks * SURFACE_CHUNK,) + A.shape[2:])[:K] for A in out)
 
 
 def surface_factor_pair(t_fn, dx, window: int):

@@ -200,10 +200,9 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
 
 def _infinite_layer_factor(layer, grid):
     """Speed-independent ``y`` integrals ``(A, B)`` of ``T_1 S_y`` and ``T_1 S_y^2`` on an infinite
-    layer (:func:`jaxroll.engines.aperiodic.surface_factor`)."""
+    layer (:func:`jaxroll.engines.aperiodic.surface_factor_pair`: ``T_1`` evaluated once per node)."""
     t1 = _radial(lambda q: static_compliance(layer, q))
-    dx, W = grid.spacing, grid.window
-    return _aperiodic.surface_factor(t1, dx, W, False), _aperiodic.surface_factor(t1, dx, W, True)
+    return _aperiodic.surface_factor_pair(t1, grid.spacing, grid.window)
 
 
 def _infinite_kernel_builder(material, layer, grid: FixedGrid):

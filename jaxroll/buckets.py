@@ -1,0 +1,89 @@
+"""Batches of full-model points solved per grid class: the host-side driver of
+:meth:`jaxroll.grids.AutoGrid.buckets`.
+
+The automatic grid of the full models is sized by the regime of a point (cells per contact
+radius, :func:`jaxroll.grids.sphere_cells_per_radius`); one grid for a whole envelope would be
+sized at its finest point, so every point would pay for the finest. Here the points are grouped
+by the grid each asks for alone; each group is solved in one warm-started ``lax.scan``
+(:meth:`jaxroll.methods.Full.evaluate_points`) in the order of its speeds, on its own grid, so
+the numbers are the per-point front door's. The window is static and the cell size traced, so
+the groups of one class share a compiled program; the groups are padded to a power of two
+(points not solved, ``count``) so that groups of other sizes share it too.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = ["padded", "compiled", "evaluate_buckets"]
+
+#: Compiled programs by function, static configuration and argument shapes (:func:`compiled`).
+_PROGRAMS: dict = {}
+
+
+def padded(idx) -> tuple:
+    """``(indices, count)``: ``idx`` padded to a power of two (at least 8) with copies of its
+    last entry, and the number of real entries."""
+    idx = np.asarray(idx)
+    size = max(8, 1 << int(math.ceil(math.log2(max(idx.size, 1)))))
+    return np.concatenate([idx, np.full(size - idx.size, idx[-1])]), idx.size
+
+
+def compiled(fn, args, static) -> tuple:
+    """``(call, compile seconds)``: ``fn`` (an ``eqx.filter_jit`` function) compiled ahead of time
+    for ``args`` and the keyword arguments ``static``, kept by the static part and the shapes of
+    ``args`` (new values of the same shapes compile nothing; ``0.0`` seconds then)."""
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    key = (fn, treedef, tuple((x.shape, x.dtype) if eqx.is_array(x) else x for x in leaves),
+           tuple(sorted(static.items())))
+    seconds = 0.0
+    if key not in _PROGRAMS:
+        t = time.perf_counter()
+        _PROGRAMS[key] = fn.lower(*args, **static).compile()
+        seconds = time.perf_counter() - t
+    program = _PROGRAMS[key]
+    return (lambda *a: program(*a, **static)), seconds
+
+
+@eqx.filter_jit
+def _points_program(method, material, layer, R, P, V, count, *, geometry):
+    from .rolling import _validated
+
+    res = method.evaluate_points(material, layer, R, P, V, geometry, axes=(None, None, None, 0, 0), count=count)
+    res = jax.vmap(lambda r, p, v: _validated(method, material, layer, r, R, p, v, geometry))(res, P, V)
+    return res.value, res.result
+
+
+def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="sphere", *, buckets=None) -> tuple:
+    """``(values, results, compile_s, run_s)`` of the full model ``method`` (a
+    :class:`~jaxroll.Full` with an :class:`~jaxroll.grids.AutoGrid`) at the points
+    ``(loads[i], speeds[i])`` (concrete 1D arrays of one length, or broadcast): ``R_r`` [N or
+    N/m] and the :data:`jaxroll.RESULTS` code per point, each point on the grid the rule asks for
+    at that point alone (:meth:`~jaxroll.grids.AutoGrid.buckets`), the points of a grid solved in
+    one warm-started scan in the order of their speeds. Equal to
+    :func:`jaxroll.rolling_resistance` at each point to the solver tolerance. ``buckets``: the
+    result of that method for these points, if already computed."""
+    loads, speeds = np.broadcast_arrays(np.asarray(loads, float).ravel(), np.asarray(speeds, float).ravel())
+    values, results = np.empty(loads.size), np.empty(loads.size, int)
+    compile_s = run_s = 0.0
+    if buckets is None:
+        buckets = method.grid.buckets(material, layer, radius, loads, speeds, geometry)
+    for grid, idx in buckets:
+        m = eqx.tree_at(lambda x: x.grid, method, grid)
+        m.check_memory(geometry)
+        idx = idx[np.argsort(speeds[idx], kind="stable")]
+        pad, count = padded(idx)
+        args = (m.dynamic(), material, layer, jnp.asarray(radius, float), jnp.asarray(loads[pad]),
+                jnp.asarray(speeds[pad]), jnp.asarray(count))
+        call, c = compiled(_points_program, args, dict(geometry=geometry))
+        t = time.perf_counter()
+        v, r = (np.asarray(x)[:count] for x in jax.block_until_ready(call(*args)))
+        run_s, compile_s = run_s + time.perf_counter() - t, compile_s + c
+        values[idx], results[idx] = v, r
+    return values, results, compile_s, run_s
