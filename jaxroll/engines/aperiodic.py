@@ -266,52 +266,36 @@ def surface_factor(t_fn, dx, window: int, squared: bool):
     Args:
         t_fn: ``t(q_x, q_y)`` of broadcasting wavenumber arrays [rad/m] (real or complex).
     """
-    return _surface_factors(t_fn, dx, window, (2 if squared else 1,))[0]
+    return _surface_factors(t_fn, dx, window, ((2 if squared else 1, False),))[0]
 
 
-def surface_factor_pair(t_fn, dx, window: int):
-    """``(A, B)``: :func:`surface_factor` of ``t_fn`` with ``S_y`` and with ``S_y^2``, from one
-    evaluation of ``t`` per node (a layer's speed-independent integrals cost half)."""
-    return _surface_factors(t_fn, dx, window, (1, 2))
+def surface_factor_pair(t_fn, dx, window: int, imag_second: bool = False):
+    """``(A, B)``: :func:`surface_factor` of ``t_fn`` with ``S_y`` and with ``S_y^2`` (of
+    ``Im t`` for ``B`` with ``imag_second``), from one evaluation of ``t`` per node: a layer's
+    speed-independent integrals, or a compliance evaluated per speed (a layer with inertia, a
+    ply stack), cost one pass instead of two."""
+    return _surface_factors(t_fn, dx, window, ((1, False), (2, imag_second)))
 
 
-def _surface_factors(t_fn, dx, window: int, powers):
+def _surface_factors(t_fn, dx, window: int, parts):
+    """:func:`surface_factor` for each ``(power of S_y, imaginary part only)`` of ``parts``."""
     rule = fourier_rule(window, W_CUT_SURFACE)
     scale = 2.0 * jnp.pi / dx
     w = rule.w
     K = w.size
     n_chunks = -(-K // SURFACE_CHUNK)
     wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
-    Sy = [np.sinc(w) ** s for s in powers]
 
     def chunk(wxc):
         t = t_fn(scale * wxc[None, :], scale * w[:, None])  # (K_y, chunk)
-        return tuple(rule.cosine(t * jnp.asarray(S[:, None], t.dtype)).T for S in Sy)  # (chunk, W) each
+        out = []
+        for power, imag in parts:
+            f = jnp.imag(t) if imag else t
+            out.append(rule.cosine(f * jnp.asarray(np.sinc(w)[:, None] ** power, f.dtype)).T)  # (chunk, W)
+        return tuple(out)
 
     out = jax.lax.map(chunk, jnp.asarray(wx))
     return tuple(A.reshape((n_chunks * SURFACE_CHUNK,) + A.shape[2:])[:K] for A in out)
-
-
-def surface_factor_pair(t_fn, dx, window: int):
-    """``(A, B)`` of :func:`surface_factor` for ``t`` (``squared=False``) and ``Im t``
-    (``squared=True``) from one evaluation of ``t`` per chunk (a compliance evaluated per
-    speed, e.g. a layer with inertia or a ply stack, costs one pass instead of two)."""
-    rule = fourier_rule(window, W_CUT_SURFACE)
-    scale = 2.0 * jnp.pi / dx
-    w = rule.w
-    K = w.size
-    n_chunks = -(-K // SURFACE_CHUNK)
-    wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
-    sy = np.sinc(w)
-
-    def chunk(wxc):
-        t = t_fn(scale * wxc[None, :], scale * w[:, None])  # (K_y, chunk)
-        a = rule.cosine(t * jnp.asarray(sy[:, None], t.dtype)).T
-        b = rule.cosine(jnp.imag(t) * jnp.asarray(sy[:, None] ** 2)).T
-        return a, b
-
-    A, B = jax.lax.map(chunk, jnp.asarray(wx))
-    return tuple(x.reshape((n_chunks * SURFACE_CHUNK,) + x.shape[2:])[:K] for x in (A, B))
 
 
 def _mirror_y(a):

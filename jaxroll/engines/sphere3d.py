@@ -222,7 +222,7 @@ def _infinite_kernel_builder(material, layer, grid: FixedGrid):
             def t(qxx, qyy):
                 return surface_compliance(layer, material, qxx, qyy, V)
 
-            A, B = _aperiodic.surface_factor_pair(t, dx, W)
+            A, B = _aperiodic.surface_factor_pair(t, dx, W, imag_second=True)
             return _aperiodic.surface_window_kernel(A, B, None, dx, W)
     return build
 
