@@ -1,5 +1,6 @@
-"""Every notebook in notebooks/ executes top to bottom (reduced resolution via
-JAXROLL_NOTEBOOK_QUICK=1) in a temporary folder, with the kernel's own (inline) matplotlib
+"""Every notebook in notebooks/ executes top to bottom in a temporary folder (in the default suite
+at reduced resolution, JAXROLL_NOTEBOOK_QUICK=1; as a user runs it, at full resolution, under
+``-m slow``), with the kernel's own (inline) matplotlib
 backend, and every cell that draws a figure shows it; the source notebooks stay unexecuted."""
 
 import re
@@ -22,12 +23,16 @@ def test_notebooks_are_stripped():
                 assert not cell.outputs and cell.execution_count is None, f"{path.name}: outputs not stripped"
 
 
+@pytest.mark.parametrize("quick", [True, pytest.param(False, marks=pytest.mark.slow)], ids=["quick", "full"])
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
-def test_notebook_executes(path, tmp_path, monkeypatch):
+def test_notebook_executes(path, quick, tmp_path, monkeypatch):
     work = tmp_path / path.name
     shutil.copy(path, work)
     nb = nbformat.read(work, as_version=4)
-    monkeypatch.setenv("JAXROLL_NOTEBOOK_QUICK", "1")
+    if quick:
+        monkeypatch.setenv("JAXROLL_NOTEBOOK_QUICK", "1")
+    else:
+        monkeypatch.delenv("JAXROLL_NOTEBOOK_QUICK", raising=False)
     # the notebooks run in a temporary folder and read their data through jr.datasets
     monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel picks its inline backend, as for a user
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
