@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 import jaxroll
+from _cases import light_xla_flags
 from jaxroll.apps.cli import build_parser
 
 REPO = Path(__file__).resolve().parents[1]
@@ -55,11 +56,12 @@ SLOW = ("--method full", "make_synthetic.py", "reproduce")
 
 
 def _env():
-    """The test session's environment (its compile flags and cache, see conftest.py) without a
-    forced host device count that another test may have set, importing the jaxroll under test
-    (installed, or this checkout) from any folder."""
+    """The test session's environment (its compilation cache, see conftest.py) with XLA's light
+    compile flags (tests/_cases.py: these interpreters run a few points each, compile-bound) and
+    without a forced host device count that another test may have set, importing the jaxroll
+    under test (installed, or this checkout) from any folder."""
     env = dict(os.environ)
-    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split() if "device_count" not in f)
+    env["XLA_FLAGS"] = light_xla_flags(env.get("XLA_FLAGS"))
     env["PYTHONPATH"] = os.pathsep.join([str(Path(jaxroll.__file__).parents[1]), *filter(None, [env.get("PYTHONPATH")])])
     return env
 

@@ -3,11 +3,13 @@ at reduced resolution, JAXROLL_NOTEBOOK_QUICK=1; as a user runs it, at full reso
 ``-m slow``), with the kernel's own (inline) matplotlib
 backend, and every cell that draws a figure shows it; the source notebooks stay unexecuted."""
 
+import os
 import re
 import shutil
 from pathlib import Path
 
 import pytest
+from _cases import light_xla_flags
 
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
@@ -29,8 +31,9 @@ def test_notebook_executes(path, quick, tmp_path, monkeypatch):
     work = tmp_path / path.name
     shutil.copy(path, work)
     nb = nbformat.read(work, as_version=4)
-    if quick:
+    if quick:  # a few points per program: compile-bound, so XLA's light flags (tests/_cases.py)
         monkeypatch.setenv("JAXROLL_NOTEBOOK_QUICK", "1")
+        monkeypatch.setenv("XLA_FLAGS", light_xla_flags(os.environ.get("XLA_FLAGS")))
     else:
         monkeypatch.delenv("JAXROLL_NOTEBOOK_QUICK", raising=False)
     # the notebooks run in a temporary folder and read their data through jr.datasets
