@@ -7,7 +7,9 @@ inherit the environment:
 
 - Opt-in (``JAXROLL_TEST_XLA_O0=1``): ``--xla_backend_optimization_level=0``, XLA:CPU without
   LLVM's optimisation passes. Compile-bound files compile a quarter to a third faster, but
-  run-bound programs run up to 2x slower or worse, so it is not the default.
+  run-bound programs run up to 2x slower or worse, so it is not the default here; the notebook
+  kernels and README interpreters that the tests start, which run a few points per program, get
+  it always (``tests/_cases.py``, ``XLA_LIGHT``).
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
