@@ -34,6 +34,8 @@ def read_logs(prefix: str) -> tuple[list, float]:
     """(test nodeid, CPU s, wall s) rows of every worker's log, and the processes' total CPU s."""
     tests, total = [], 0.0
     for path in sorted(glob.glob(prefix + ".*")):
+        if not re.fullmatch(r"gw\d+|main", path[len(prefix) + 1:]):
+            continue  # PREFIX.<worker> only
         for line in Path(path).read_text().splitlines():
             name, cpu, wall, _load = line.split("\t")
             if name == "<process total>":
