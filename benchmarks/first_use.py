@@ -48,6 +48,14 @@ def pytest_counts(text: str) -> dict:
     return counts
 
 
+def slowest_tests(text: str) -> list:
+    """pytest's ``slowest N durations`` block (``--durations=25`` in pyproject's addopts) as
+    ``[seconds, phase, test]`` rows, slowest first."""
+    block = re.search(r"=+ slowest \d+ durations =+\n(.*?)(?:\n=|\Z)", text, re.S)
+    rows = re.findall(r"^([\d.]+)s (setup|call|teardown)\s+(\S.*)$", block.group(1), re.M) if block else []
+    return [[float(s), phase, name.strip()] for s, phase, name in rows]
+
+
 def time_suite() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         clone = Path(tmp) / "clone"
@@ -61,7 +69,8 @@ def time_suite() -> dict:
     log.write_text(proc.stdout + proc.stderr)
     print(f".ci/run's output: {log}", flush=True)
     out = {"ci_run_s": round(seconds, 1), "exit": proc.returncode, "load_before": round(load0, 1),
-           "load_after": round(os.getloadavg()[0], 1), **pytest_counts(proc.stdout + proc.stderr)}
+           "load_after": round(os.getloadavg()[0], 1), **pytest_counts(proc.stdout + proc.stderr),
+           "slowest": slowest_tests(proc.stdout + proc.stderr)}
     return out
 
 

@@ -130,12 +130,26 @@ def batched_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def slowest_tests(numbers: dict) -> str:
+    """The 25 slowest tests of the recorded clean-clone suite run (pytest's ``--durations``, wall
+    seconds inside one pytest-xdist worker)."""
+    sec = numbers["first_use"]
+    m, s = sec["measured"], sec["suite"]
+    lines = [f"The 25 slowest tests of that run (wall seconds in one of the pytest-xdist workers; {m['cores']} cores, "
+             f"{m['cpu']}, commit {m['commit']}, load average {s['load_before']:g} before, {s['load_after']:g} "
+             f"after; `pytest` prints them after every run):", "", "| s | test |", "|---:|---|"]
+    lines += [f"| {sec_:.1f} | `{name.removeprefix('tests/')}`{'' if phase == 'call' else f' ({phase})'} |"
+              for sec_, phase, name in s.get("slowest", [])]
+    return "\n".join(lines)
+
+
 #: generated block name -> renderer of numbers.json
 BLOCKS = {
     "methods-table": methods_table,
     "default-method-table": default_method_table,
     "first-use": first_use,
     "batched-table": batched_table,
+    "slowest-tests": slowest_tests,
 }
 
 #: files holding generated blocks

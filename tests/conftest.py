@@ -7,7 +7,9 @@ inherit the environment:
 
 - Opt-in (``JAXROLL_TEST_XLA_O0=1``): ``--xla_backend_optimization_level=0``, XLA:CPU without
   LLVM's optimisation passes. Compile-bound files compile a quarter to a third faster, but
-  run-bound programs run up to 2x slower or worse, so it is not the default.
+  run-bound programs run up to 2x slower or worse, so it is not the default here; the notebook
+  kernels and README interpreters that the tests start, which run a few points per program, get
+  it always (``tests/_cases.py``, ``XLA_LIGHT``).
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
@@ -16,6 +18,9 @@ inherit the environment:
   folder, and every worker, with the subprocesses it starts, keeps its own subfolder: jax writes
   a cache file in place, and a process must not load a program that another is still writing.
 
+Set ``JAXROLL_TEST_CPU_LOG=PREFIX`` to write every test's CPU time (user + system, of the test
+process and of the subprocesses it waited for; the steady figure on a shared machine) and wall time
+to ``PREFIX.<worker>`` (``benchmarks/suite_cost.py`` runs the suite so and sums it per file).
 Set ``JAXROLL_TEST_PLAIN_XLA=1`` to run with jax's defaults (no flag, no cache), for comparison,
 and ``JAXROLL_TEST_CLEAR_EVERY_MODULE=1`` to drop the compiled programs after every module (see
 :func:`_release_compiled_programs`). The run ends with a line that counts the programs compiled
@@ -26,6 +31,7 @@ import gc
 import os
 import shutil
 import tempfile
+import time
 
 if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
     if os.environ.get("JAXROLL_TEST_XLA_O0"):  # opt-in: see the module docstring
@@ -89,6 +95,10 @@ def pytest_terminal_summary(terminalreporter):
 
 
 def pytest_sessionfinish(session, exitstatus):
+    log = os.environ.get("JAXROLL_TEST_CPU_LOG")
+    if log:  # the whole process (collection, imports and fixtures outside the tests included)
+        with open(f"{log}.{os.environ.get('PYTEST_XDIST_WORKER', 'main')}", "a") as out:
+            out.write(f"<process total>\t{_cpu_seconds():.2f}\t{time.perf_counter():.2f}\t{os.getloadavg()[0]:.1f}\n")
     if hasattr(session.config, "workeroutput"):  # a pytest-xdist worker: report to the controller
         session.config.workeroutput["jaxroll_compilation"] = dict(_COMPILATION)
     cache = globals().get("_CACHE_DIR")
@@ -104,6 +114,26 @@ def pytest_testnodedown(node, error):
         _WORKERS.append(node.gateway.id)
     for key, value in counts.items():
         _COMPILATION[key] += value
+
+
+def _cpu_seconds() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """With ``JAXROLL_TEST_CPU_LOG`` set: log the test's CPU and wall seconds (setup, call and
+    teardown, module fixtures included in the test that runs them)."""
+    log = os.environ.get("JAXROLL_TEST_CPU_LOG")
+    if not log:
+        yield
+        return
+    cpu0, wall0 = _cpu_seconds(), time.perf_counter()
+    yield
+    cpu, wall = _cpu_seconds() - cpu0, time.perf_counter() - wall0
+    with open(f"{log}.{os.environ.get('PYTEST_XDIST_WORKER', 'main')}", "a") as out:
+        out.write(f"{item.nodeid}\t{cpu:.2f}\t{wall:.2f}\t{os.getloadavg()[0]:.1f}\n")
 
 
 #: Memory mappings of this process above which the compiled programs are dropped after a test

@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 import jaxroll
+from _cases import light_xla_flags
 from jaxroll.apps.cli import build_parser
 
 REPO = Path(__file__).resolve().parents[1]
@@ -54,19 +55,59 @@ def _shell_commands():
 SLOW = ("--method full", "make_synthetic.py", "reproduce")
 
 
-def _env():
-    """The test session's environment (its compile flags and cache, see conftest.py) without a
-    forced host device count that another test may have set, importing the jaxroll under test
-    (installed, or this checkout) from any folder."""
+def _env(light=True):
+    """The test session's environment (its compilation cache, see conftest.py), with XLA's light
+    compile flags where ``light`` (tests/_cases.py: an interpreter that runs a few points per
+    program is compile-bound; a fit is not) and without a forced host device count that another
+    test may have set, importing the jaxroll under test (installed, or this checkout) from any
+    folder."""
     env = dict(os.environ)
-    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split() if "device_count" not in f)
+    flags = [f for f in env.get("XLA_FLAGS", "").split() if "device_count" not in f]
+    env["XLA_FLAGS"] = light_xla_flags(" ".join(flags)) if light else " ".join(flags)
     env["PYTHONPATH"] = os.pathsep.join([str(Path(jaxroll.__file__).parents[1]), *filter(None, [env.get("PYTHONPATH")])])
     return env
 
 
-@pytest.mark.parametrize("code", _blocks("python"))
+#: Top-level statements (by their first characters) that the default suite leaves out of a block,
+#: because they compile for half a minute or more while the same transformation is checked by
+#: the library's own tests (the gradient of the full 3D model: tests/test_api.py,
+#: tests/test_batched.py); under ``-m slow`` every block runs whole, as written.
+QUICK_SKIP = {"README.md:python0": ("dRr_dH = jax.grad(",)}
+
+
+def _without(code: str, prefixes) -> str:
+    """``code`` without its top-level statements that start with one of ``prefixes`` (each must
+    match one: a README edit must not leave a stale entry here)."""
+    import ast
+
+    lines = code.splitlines()
+    keep, hit = [], set()
+    for node in ast.parse(code).body:
+        text = "\n".join(lines[node.lineno - 1:node.end_lineno])
+        matched = [p for p in prefixes if text.startswith(p)]
+        hit.update(matched)
+        if not matched:
+            keep.append(text)
+    assert hit == set(prefixes), f"no statement starts with {set(prefixes) - hit}"
+    return "\n".join(keep) + "\n"
+
+
+def _python_cases():
+    out = []
+    for param in _blocks("python"):
+        (code,), name = param.values, param.id
+        if name in QUICK_SKIP:
+            out.append(pytest.param(_without(code, QUICK_SKIP[name]), id=f"{name}-quick"))
+            out.append(pytest.param(code, id=name, marks=pytest.mark.slow))
+        else:
+            out.append(param)
+    return out
+
+
+@pytest.mark.parametrize("code", _python_cases())
 def test_python_blocks_run(code, tmp_path):
-    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600,
+    # the timeout guards against a hang only: on 2 cores shared with other work this block took ~500 s
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=1800,
                           env=_env(), check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
 
@@ -125,5 +166,5 @@ def _argv(line, tmp_path):
 def test_shell_commands_run(setup, line, tmp_path):
     for step in (*[s for s in setup if s != line], line):
         proc = subprocess.run(_argv(step, tmp_path), cwd=tmp_path, capture_output=True, text=True, timeout=1800,
-                              env=_env(), check=False)
+                              env=_env(light=not step.startswith("jaxroll fit")), check=False)
         assert proc.returncode == 0, f"{step}: {proc.stderr[-3000:]}"
