@@ -199,6 +199,8 @@ H_SPLIT = (0.002, 0.003)  # plies of one material summing to the layer's H = 5 m
 SPHERE_GRID = jr.FixedGrid(6e-4, 17, period=0.08, n_terms=80)
 LINE_GRID = jr.FixedGrid(2e-4, 80, period=0.1)
 METHODS = {  # name: (method, geometry, load); the default copies run always, the rest under -m slow
+    "default-cylinder": (None, "cylinder", 5000.0),  # method not named: the full 2D model, AutoGrid
+    "default-sphere": (None, "sphere", 150.0),
     "full2d": (jr.Full(grid=jr.FixedGrid(2e-4, 80)), "cylinder", 5000.0),
     "direct-cylinder": (jr.Direct(), "cylinder", 5000.0),
     "full2d-periodic": (jr.Full(grid=LINE_GRID), "cylinder", 5000.0),
@@ -211,7 +213,7 @@ METHODS = {  # name: (method, geometry, load); the default copies run always, th
     "PD": (jr.Slices(algorithm="PD", grid=LINE_GRID), "sphere", 150.0),
     "PP": (jr.Slices(algorithm="PP", grid=LINE_GRID), "sphere", 150.0),
 }
-FAST = ("full2d", "direct-cylinder")
+FAST = ("default-cylinder", "direct-cylinder")
 
 
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # flags compared below, not asserted
