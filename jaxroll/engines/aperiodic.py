@@ -257,6 +257,24 @@ def line_window_kernel(compliance_fn, dx, window: int, halfspace) -> _contact.Wi
 # ---------------------------------------------------------------------------------------------
 
 
+def _surface_chunks(chunk_fn, dx, window: int):
+    """``chunk_fn(t_of, rule, w)`` over the x nodes of the surface rule in chunks of
+    ``SURFACE_CHUNK`` (``lax.map``), ``t_of(t_fn)`` the ``(K_y, chunk)`` values of ``t_fn``;
+    the outputs (each ``(chunk, ...)``) concatenated over the ``K`` x nodes."""
+    rule = fourier_rule(window, W_CUT_SURFACE)
+    scale = 2.0 * jnp.pi / dx
+    w = rule.w
+    K = w.size
+    n_chunks = -(-K // SURFACE_CHUNK)
+    wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
+
+    def chunk(wxc):
+        return chunk_fn(lambda t_fn: t_fn(scale * wxc[None, :], scale * w[:, None]), rule, w)
+
+    out = jax.lax.map(chunk, jnp.asarray(wx))
+    return jax.tree_util.tree_map(lambda x: x.reshape((n_chunks * SURFACE_CHUNK,) + x.shape[2:])[:K], out)
+
+
 def surface_factor(t_fn, dx, window: int, squared: bool):
     """``A(i, m) = int_0^{w_Q} t(q_x_i, q_y) S(q_y)^s cos(2 pi w_y m) dw_y`` for every x node
     ``i`` of the rule and ``m = 0 .. W - 1`` (``s = 2`` if ``squared`` else 1), chunked over the x
@@ -265,42 +283,23 @@ def surface_factor(t_fn, dx, window: int, squared: bool):
     Args:
         t_fn: ``t(q_x, q_y)`` of broadcasting wavenumber arrays [rad/m] (real or complex).
     """
-    rule = fourier_rule(window, W_CUT_SURFACE)
-    scale = 2.0 * jnp.pi / dx
-    w = rule.w
-    K = w.size
-    n_chunks = -(-K // SURFACE_CHUNK)
-    wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
-    Sy = np.sinc(w) ** (2 if squared else 1)
+    def chunk(t_of, rule, w):
+        t = t_of(t_fn)  # (K_y, chunk)
+        return rule.cosine(t * jnp.asarray(np.sinc(w)[:, None] ** (2 if squared else 1), t.dtype)).T  # (chunk, W)
 
-    def chunk(wxc):
-        t = t_fn(scale * wxc[None, :], scale * w[:, None])  # (K_y, chunk)
-        return rule.cosine(t * jnp.asarray(Sy[:, None], t.dtype)).T  # (chunk, W)
-
-    A = jax.lax.map(chunk, jnp.asarray(wx))
-    return A.reshape((n_chunks * SURFACE_CHUNK,) + A.shape[2:])[:K]
+    return _surface_chunks(chunk, dx, window)
 
 
 def surface_factor_pair(t_fn, dx, window: int):
     """``(A, B)`` of :func:`surface_factor` for ``t`` (``squared=False``) and ``Im t``
     (``squared=True``) from one evaluation of ``t`` per chunk (a compliance evaluated per
     speed, e.g. a layer with inertia or a ply stack, costs one pass instead of two)."""
-    rule = fourier_rule(window, W_CUT_SURFACE)
-    scale = 2.0 * jnp.pi / dx
-    w = rule.w
-    K = w.size
-    n_chunks = -(-K // SURFACE_CHUNK)
-    wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
-    sy = np.sinc(w)
+    def chunk(t_of, rule, w):
+        t = t_of(t_fn)
+        sy = np.sinc(w)[:, None]
+        return rule.cosine(t * jnp.asarray(sy, t.dtype)).T, rule.cosine(jnp.imag(t) * jnp.asarray(sy**2)).T
 
-    def chunk(wxc):
-        t = t_fn(scale * wxc[None, :], scale * w[:, None])  # (K_y, chunk)
-        a = rule.cosine(t * jnp.asarray(sy[:, None], t.dtype)).T
-        b = rule.cosine(jnp.imag(t) * jnp.asarray(sy[:, None] ** 2)).T
-        return a, b
-
-    A, B = jax.lax.map(chunk, jnp.asarray(wx))
-    return tuple(x.reshape((n_chunks * SURFACE_CHUNK,) + x.shape[2:])[:K] for x in (A, B))
+    return _surface_chunks(chunk, dx, window)
 
 
 def _mirror_y(a):
