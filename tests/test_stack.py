@@ -69,12 +69,12 @@ FORMS = [dict(), dict(rho=1100.0), dict(nu=0.35)]  # quasi-static, with inertia,
 
 @pytest.mark.parametrize("kw", FORMS, ids=["static", "inertia", "compressible"])
 def test_identical_plies_equal_the_single_layer(kw):
-    """Three plies of one material = the layer of the summed thickness (q H from 1e-3 to 1e4;
+    """Two plies of one material = the layer of the summed thickness (q H from 1e-3 to 1e4;
     V = 30 m/s: |eps| up to 0.33 with inertia)."""
     H, V = 0.006, 30.0
     q = jnp.asarray(QH / H)
     ref = np.asarray(surface_compliance(jr.Layer(H, **kw), M1, q, 0.0, V))
-    st = jr.Stack([jr.Ply(M1, H=h, **kw) for h in (0.001, 0.002, 0.003)])
+    st = jr.Stack([jr.Ply(M1, H=h, **kw) for h in (0.002, 0.004)])
     val = np.asarray(_T(st, q, 0.0, V))
     # both sides float64 (the single layer ~1e-13 against the oracle); measured <= 1e-13
     assert np.max(np.abs(val - ref) / np.abs(ref)) <= 1e-12
@@ -137,13 +137,12 @@ def test_elastic_layer_on_half_space_matches_the_published_two_layer_kernel(mu1,
     assert np.max(np.abs(val - ref) / np.abs(ref)) <= 1e-12
 
 
-def test_no_overflow_at_large_qh_and_finite_gradients():
+def test_no_overflow_at_large_qh():
+    """q H up to 1e6 (the gradient test below covers the derivatives of the same branches)."""
     st = jr.Stack([jr.Ply(M1, H=0.004, rho=1100.0), jr.Ply(M2, H=0.01)], base=jr.HalfSpace(M3))
     q = jnp.logspace(-2, 8, 21)
-    t = _T(st, q, 0.0, 10.0)
-    assert np.all(np.isfinite(np.asarray(t))) and np.all(np.asarray(t).real > 0)
-    g = jax.grad(lambda s: jnp.sum(jnp.abs(stack_compliance(s, q, 0.0, 10.0)) * q))(st)
-    assert all(np.all(np.isfinite(np.asarray(x))) for x in jax.tree_util.tree_leaves(g))
+    t = np.asarray(_T(st, q, 0.0, 10.0))
+    assert np.all(np.isfinite(t)) and np.all(t.real > 0) and np.all(t.imag > 0)
 
 
 def _fd(f, x, h):
@@ -188,8 +187,10 @@ def test_bad_stacks_are_rejected():
     with pytest.raises(ValueError, match="material"):
         jr.Ply(3e6, H=0.01)
     st = jr.Stack([jr.Ply(M1, H=0.01)])
-    with pytest.raises(ValueError, match="alone"):
-        jr.rolling_resistance(M1, st, radius=0.02, load=100.0, speed=1.0)
+    with pytest.raises(ValueError, match="alone"):  # a material other than the stack's own
+        jr.rolling_resistance(M2, st, radius=0.02, load=100.0, speed=1.0)
+    with pytest.raises(ValueError, match="Stack alone"):
+        jr.rolling_resistance(M1, radius=0.02, load=100.0, speed=1.0)
 
 
 # --------------------------------------------------------------------------------------
