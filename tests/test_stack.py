@@ -78,6 +78,10 @@ def test_identical_plies_equal_the_single_layer(kw):
     val = np.asarray(_T(st, q, 0.0, V))
     # both sides float64 (the single layer ~1e-13 against the oracle); measured <= 1e-13
     assert np.max(np.abs(val - ref) / np.abs(ref)) <= 1e-12
+    # a ply on a half-space of its own material is the half-space
+    ref = np.asarray(surface_compliance(jr.Layer(jnp.inf, **kw), M1, q, 0.0, V))
+    val = np.asarray(_T(jr.Stack([jr.Ply(M1, H=H, **kw)], base=jr.HalfSpace(M1, **kw)), q, 0.0, V))
+    assert np.max(np.abs(val - ref) / np.abs(ref)) <= 1e-12
 
 
 def test_stiff_bottom_ply_and_stiff_base_are_the_rigid_base():
