@@ -233,10 +233,13 @@ def test_identical_plies_give_the_single_layer_rolling_resistance(name):
     assert int(val.result) == int(ref.result)
 
 
-def test_rolling_resistance_gradient_in_ply_thickness_matches_central_differences():
-    """d R_r/d H_cover of a cover on a carcass (full 2D, fixed grid) under jax.grad, against a
-    central difference (h = 1e-6 relative: the contact solve's tolerance 1e-10 sets ~1e-4)."""
-    method = jr.Full(grid=jr.FixedGrid(2e-4, 80))
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # a derivative check, not a validity one
+@pytest.mark.parametrize("method", [jr.Direct(), pytest.param(jr.Full(grid=jr.FixedGrid(2e-4, 80)),
+                                                              marks=pytest.mark.slow)], ids=["direct", "full2d"])
+def test_rolling_resistance_gradient_in_ply_thickness_matches_central_differences(method):
+    """d R_r/d H_cover of a cover on a carcass (cylinder) under jax.grad, against a central
+    difference (h = 1e-6 relative: the full model's contact tolerance 1e-10 sets ~1e-4, the
+    direct method's quadrature less)."""
 
     def rr(h):
         st = jr.Stack([jr.Ply(M1, H=h), jr.Ply(M2, H=0.002, nu=0.45)])
