@@ -9,17 +9,20 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 
+def _t_of_propagator(E):
+    """``e1^T T12 T22^{-1} e1`` of the 6x6 propagator ``E`` (rigid base at its bottom)."""
+    T12 = mp.matrix(3, 3)
+    T22 = mp.matrix(3, 3)
+    for i in range(3):
+        for j in range(3):
+            T12[i, j] = E[i, 3 + j]
+            T22[i, j] = E[3 + i, 3 + j]
+    return complex((T12 * mp.inverse(T22))[0, 0])
+
+
 def _t_from_expm(A, H, dps):
     with mp.workdps(dps):
-        E = mp.expm(A * H)
-        T12 = mp.matrix(3, 3)
-        T22 = mp.matrix(3, 3)
-        for i in range(3):
-            for j in range(3):
-                T12[i, j] = E[i, 3 + j]
-                T22[i, j] = E[3 + i, 3 + j]
-        M = T12 * mp.inverse(T22)
-        return complex(M[0, 0])
+        return _t_of_propagator(mp.expm(A * H))
 
 
 def _dps_for(q, H):
@@ -111,13 +114,7 @@ def transfer_expm_stack(qx, qy, plies, V, base=None, base_depth=60.0):
                 assert rho == 0.0
                 A = _A_compressible(vx, vy, Gm, mp.mpf(nu))
             E = E * mp.expm(A * mp.mpf(H))
-        T12 = mp.matrix(3, 3)
-        T22 = mp.matrix(3, 3)
-        for i in range(3):
-            for j in range(3):
-                T12[i, j] = E[i, 3 + j]
-                T22[i, j] = E[3 + i, 3 + j]
-        return complex((T12 * mp.inverse(T22))[0, 0])
+        return _t_of_propagator(E)
 
 
 def winkler_sls(P, R, H, G0, tau, f, nu, V):

@@ -69,14 +69,18 @@ FORMS = [dict(), dict(rho=1100.0), dict(nu=0.35)]  # quasi-static, with inertia,
 
 @pytest.mark.parametrize("kw", FORMS, ids=["static", "inertia", "compressible"])
 def test_identical_plies_equal_the_single_layer(kw):
-    """Three plies of one material = the layer of the summed thickness (q H from 1e-3 to 1e4;
+    """Two plies of one material = the layer of the summed thickness (q H from 1e-3 to 1e4;
     V = 30 m/s: |eps| up to 0.33 with inertia)."""
     H, V = 0.006, 30.0
     q = jnp.asarray(QH / H)
     ref = np.asarray(surface_compliance(jr.Layer(H, **kw), M1, q, 0.0, V))
-    st = jr.Stack([jr.Ply(M1, H=h, **kw) for h in (0.001, 0.002, 0.003)])
+    st = jr.Stack([jr.Ply(M1, H=h, **kw) for h in (0.002, 0.004)])
     val = np.asarray(_T(st, q, 0.0, V))
     # both sides float64 (the single layer ~1e-13 against the oracle); measured <= 1e-13
+    assert np.max(np.abs(val - ref) / np.abs(ref)) <= 1e-12
+    # a ply on a half-space of its own material is the half-space
+    ref = np.asarray(surface_compliance(jr.Layer(jnp.inf, **kw), M1, q, 0.0, V))
+    val = np.asarray(_T(jr.Stack([jr.Ply(M1, H=H, **kw)], base=jr.HalfSpace(M1, **kw)), q, 0.0, V))
     assert np.max(np.abs(val - ref) / np.abs(ref)) <= 1e-12
 
 
@@ -137,13 +141,12 @@ def test_elastic_layer_on_half_space_matches_the_published_two_layer_kernel(mu1,
     assert np.max(np.abs(val - ref) / np.abs(ref)) <= 1e-12
 
 
-def test_no_overflow_at_large_qh_and_finite_gradients():
+def test_no_overflow_at_large_qh():
+    """q H up to 1e6 (the gradient test below covers the derivatives of the same branches)."""
     st = jr.Stack([jr.Ply(M1, H=0.004, rho=1100.0), jr.Ply(M2, H=0.01)], base=jr.HalfSpace(M3))
     q = jnp.logspace(-2, 8, 21)
-    t = _T(st, q, 0.0, 10.0)
-    assert np.all(np.isfinite(np.asarray(t))) and np.all(np.asarray(t).real > 0)
-    g = jax.grad(lambda s: jnp.sum(jnp.abs(stack_compliance(s, q, 0.0, 10.0)) * q))(st)
-    assert all(np.all(np.isfinite(np.asarray(x))) for x in jax.tree_util.tree_leaves(g))
+    t = np.asarray(_T(st, q, 0.0, 10.0))
+    assert np.all(np.isfinite(t)) and np.all(t.real > 0) and np.all(t.imag > 0)
 
 
 def _fd(f, x, h):
@@ -188,8 +191,10 @@ def test_bad_stacks_are_rejected():
     with pytest.raises(ValueError, match="material"):
         jr.Ply(3e6, H=0.01)
     st = jr.Stack([jr.Ply(M1, H=0.01)])
-    with pytest.raises(ValueError, match="alone"):
-        jr.rolling_resistance(M1, st, radius=0.02, load=100.0, speed=1.0)
+    with pytest.raises(ValueError, match="alone"):  # a material other than the stack's own
+        jr.rolling_resistance(M2, st, radius=0.02, load=100.0, speed=1.0)
+    with pytest.raises(ValueError, match="Stack alone"):
+        jr.rolling_resistance(M1, radius=0.02, load=100.0, speed=1.0)
 
 
 # --------------------------------------------------------------------------------------
@@ -199,6 +204,8 @@ H_SPLIT = (0.002, 0.003)  # plies of one material summing to the layer's H = 5 m
 SPHERE_GRID = jr.FixedGrid(6e-4, 17, period=0.08, n_terms=80)
 LINE_GRID = jr.FixedGrid(2e-4, 80, period=0.1)
 METHODS = {  # name: (method, geometry, load); the default copies run always, the rest under -m slow
+    "default-cylinder": (None, "cylinder", 5000.0),  # method not named: the full 2D model, AutoGrid
+    "default-sphere": (None, "sphere", 150.0),
     "full2d": (jr.Full(grid=jr.FixedGrid(2e-4, 80)), "cylinder", 5000.0),
     "direct-cylinder": (jr.Direct(), "cylinder", 5000.0),
     "full2d-periodic": (jr.Full(grid=LINE_GRID), "cylinder", 5000.0),
@@ -211,7 +218,7 @@ METHODS = {  # name: (method, geometry, load); the default copies run always, th
     "PD": (jr.Slices(algorithm="PD", grid=LINE_GRID), "sphere", 150.0),
     "PP": (jr.Slices(algorithm="PP", grid=LINE_GRID), "sphere", 150.0),
 }
-FAST = ("full2d", "direct-cylinder")
+FAST = ("default-cylinder", "direct-cylinder")
 
 
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # flags compared below, not asserted
@@ -226,10 +233,13 @@ def test_identical_plies_give_the_single_layer_rolling_resistance(name):
     assert int(val.result) == int(ref.result)
 
 
-def test_rolling_resistance_gradient_in_ply_thickness_matches_central_differences():
-    """d R_r/d H_cover of a cover on a carcass (full 2D, fixed grid) under jax.grad, against a
-    central difference (h = 1e-6 relative: the contact solve's tolerance 1e-10 sets ~1e-4)."""
-    method = jr.Full(grid=jr.FixedGrid(2e-4, 80))
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # a derivative check, not a validity one
+@pytest.mark.parametrize("method", [jr.Direct(), pytest.param(jr.Full(grid=jr.FixedGrid(2e-4, 80)),
+                                                              marks=pytest.mark.slow)], ids=["direct", "full2d"])
+def test_rolling_resistance_gradient_in_ply_thickness_matches_central_differences(method):
+    """d R_r/d H_cover of a cover on a carcass (cylinder) under jax.grad, against a central
+    difference (h = 1e-6 relative: the full model's contact tolerance 1e-10 sets ~1e-4, the
+    direct method's quadrature less)."""
 
     def rr(h):
         st = jr.Stack([jr.Ply(M1, H=h), jr.Ply(M2, H=0.002, nu=0.45)])

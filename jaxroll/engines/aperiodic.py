@@ -258,27 +258,10 @@ def line_window_kernel(compliance_fn, dx, window: int, halfspace) -> _contact.Wi
 # ---------------------------------------------------------------------------------------------
 
 
-def surface_factor(t_fn, dx, window: int, squared: bool):
-    """``A(i, m) = int_0^{w_Q} t(q_x_i, q_y) S(q_y)^s cos(2 pi w_y m) dw_y`` for every x node
-    ``i`` of the rule and ``m = 0 .. W - 1`` (``s = 2`` if ``squared`` else 1), chunked over the x
-    nodes (``lax.map``) so the working memory is ``SURFACE_CHUNK x K``.
-
-    Args:
-        t_fn: ``t(q_x, q_y)`` of broadcasting wavenumber arrays [rad/m] (real or complex).
-    """
-    return _surface_factors(t_fn, dx, window, ((2 if squared else 1, False),))[0]
-
-
-def surface_factor_pair(t_fn, dx, window: int, imag_second: bool = False):
-    """``(A, B)``: :func:`surface_factor` of ``t_fn`` with ``S_y`` and with ``S_y^2`` (of
-    ``Im t`` for ``B`` with ``imag_second``), from one evaluation of ``t`` per node: a layer's
-    speed-independent integrals, or a compliance evaluated per speed (a layer with inertia, a
-    ply stack), cost one pass instead of two."""
-    return _surface_factors(t_fn, dx, window, ((1, False), (2, imag_second)))
-
-
-def _surface_factors(t_fn, dx, window: int, parts):
-    """:func:`surface_factor` for each ``(power of S_y, imaginary part only)`` of ``parts``."""
+def _surface_chunks(chunk_fn, dx, window: int):
+    """``chunk_fn(t_of, rule, w)`` over the x nodes of the surface rule in chunks of
+    ``SURFACE_CHUNK`` (``lax.map``), ``t_of(t_fn)`` the ``(K_y, chunk)`` values of ``t_fn``;
+    the outputs (each ``(chunk, ...)``) concatenated over the ``K`` x nodes."""
     rule = fourier_rule(window, W_CUT_SURFACE)
     scale = 2.0 * jnp.pi / dx
     w = rule.w
@@ -287,15 +270,39 @@ def _surface_factors(t_fn, dx, window: int, parts):
     wx = np.concatenate([w, np.full(n_chunks * SURFACE_CHUNK - K, w[-1])]).reshape(n_chunks, SURFACE_CHUNK)
 
     def chunk(wxc):
-        t = t_fn(scale * wxc[None, :], scale * w[:, None])  # (K_y, chunk)
-        out = []
-        for power, imag in parts:
-            f = jnp.imag(t) if imag else t
-            out.append(rule.cosine(f * jnp.asarray(np.sinc(w)[:, None] ** power, f.dtype)).T)  # (chunk, W)
-        return tuple(out)
+        return chunk_fn(lambda t_fn: t_fn(scale * wxc[None, :], scale * w[:, None]), rule, w)
 
     out = jax.lax.map(chunk, jnp.asarray(wx))
-    return tuple(A.reshape((n_chunks * SURFACE_CHUNK,) + A.shape[2:])[:K] for A in out)
+    return jax.tree_util.tree_map(lambda x: x.reshape((n_chunks * SURFACE_CHUNK,) + x.shape[2:])[:K], out)
+
+
+def surface_factor(t_fn, dx, window: int, squared: bool):
+    """``A(i, m) = int_0^{w_Q} t(q_x_i, q_y) S(q_y)^s cos(2 pi w_y m) dw_y`` for every x node
+    ``i`` of the rule and ``m = 0 .. W - 1`` (``s = 2`` if ``squared`` else 1), chunked over the x
+    nodes (``lax.map``) so the working memory is ``SURFACE_CHUNK x K``.
+
+    Args:
+        t_fn: ``t(q_x, q_y)`` of broadcasting wavenumber arrays [rad/m] (real or complex).
+    """
+    def chunk(t_of, rule, w):
+        t = t_of(t_fn)  # (K_y, chunk)
+        return rule.cosine(t * jnp.asarray(np.sinc(w)[:, None] ** (2 if squared else 1), t.dtype)).T  # (chunk, W)
+
+    return _surface_chunks(chunk, dx, window)
+
+
+def surface_factor_pair(t_fn, dx, window: int, imag_second: bool = False):
+    """``(A, B)``: :func:`surface_factor` of ``t_fn`` with ``S_y`` and with ``S_y^2`` (of
+    ``Im t`` for ``B`` with ``imag_second``), from one evaluation of ``t`` per node: a layer's
+    speed-independent integrals, or a compliance evaluated per speed (a layer with inertia, a
+    ply stack), cost one pass instead of two."""
+    def chunk(t_of, rule, w):
+        t = t_of(t_fn)
+        sy = np.sinc(w)[:, None]
+        b = jnp.imag(t) if imag_second else t
+        return rule.cosine(t * jnp.asarray(sy, t.dtype)).T, rule.cosine(b * jnp.asarray(sy**2, b.dtype)).T
+
+    return _surface_chunks(chunk, dx, window)
 
 
 def _mirror_y(a):

@@ -217,6 +217,8 @@ def models(material, layer):
     (``layer=None``) becomes ``(stack.material, stack)`` (its top ply's material for the
     single-layer heuristics; the compliance is the stack's)."""
     if isinstance(layer, Stack):
+        if material is layer.material:  # already split (the front doors' own calls)
+            return material, layer
         raise ValueError("a jr.Stack carries its plies' materials: give it alone, "
                          "rolling_resistance(stack, radius=..., ...), not with a material")
     if isinstance(material, Stack):
