@@ -24,7 +24,7 @@ def test_default_is_the_full_model_on_an_infinite_layer(geometry):
     m = default_method(geometry)
     assert m == jr.Full() and isinstance(m.grid, jr.AutoGrid) and m.grid.period is None
     assert m.edge_smoothing is None
-    assert default_method(geometry, fit=True) == jr.Full(edge_smoothing=FIT_EDGE_SMOOTHING)
+    assert default_method(geometry, fit=True) == jr.Full(edge_smoothing=FIT_EDGE_SMOOTHING, edge_extrapolation=True)
     with pytest.raises(ValueError):
         default_method("cube")
 
@@ -112,6 +112,7 @@ def test_fit_material_default_resolves_its_grid_and_regrids_once():
         fit = fit_material(RollingData(V, P, y), initial=start, layer=HALF, radius=R, geometry="cylinder",
                            free=("G0", "tau"))
     assert isinstance(fit.method, jr.Full) and fit.method.edge_smoothing == FIT_EDGE_SMOOTHING
+    assert fit.method.edge_extrapolation
     assert isinstance(fit.method.grid, jr.FixedGrid)
     assert len(fit.starts) == 2  # the first fit, and the one on the grid resolved at its result
     final = default_method("cylinder", fit=True).resolve(fit.material, HALF, radius=R, loads=P, speeds=V,
