@@ -616,6 +616,24 @@ def full_model_value(moment, dissipation, zeta) -> jax.Array:
 CALIBRATED_CONTACT_RATIO = 0.48
 
 
+#: Measured bias of the smoothed contact edge against the exact discrete contact on the default
+#: grid, relative, largest over zeta = 0.01..100 and f = 0.3..3 (benchmarks/edge_smoothing_bias.py):
+#: ``EDGE_BIAS_SCALE[g] * kappa^1.5`` bounds it for kappa = 0.125..1 (sphere: -0.46 / -1.43 /
+#: -3.85 / -8.65 % at kappa = 0.125 / 0.25 / 0.5 / 1; cylinder -0.13 / -0.62 / -2.0 / -5.8 %), and
+#: after the Richardson extrapolation (``Full(edge_extrapolation=True)``) what is left,
+#: ``EDGE_EXTRAPOLATED_BIAS[g]`` (sphere <= 0.07 %, cylinder <= 0.05 % measured).
+EDGE_BIAS_SCALE = {"sphere3d": 0.115, "cylinder": 0.06}
+EDGE_EXTRAPOLATED_BIAS = {"sphere3d": 7e-4, "cylinder": 5e-4}
+
+
+def edge_smoothing_error(kappa, extrapolated, model) -> float:
+    """Bound [relative] on the smoothed contact edge's bias (``Full(edge_smoothing=kappa)``, with
+    ``extrapolated``: its Richardson extrapolation) for the full ``model`` (``"sphere3d"`` or
+    ``"cylinder"``): :data:`ERROR_SAFETY` times the measured envelope, added to ``truncation``."""
+    envelope = EDGE_EXTRAPOLATED_BIAS[model] if extrapolated else EDGE_BIAS_SCALE[model] * kappa**1.5
+    return ERROR_SAFETY * envelope
+
+
 def full_model_error(moment, dissipation, zeta, cells, geometry, contact_ratio=1.0, breadth=0.0) -> jax.Array:
     """The error estimate (``RollingResult.truncation``, relative) of a full model's reported
     value (:func:`full_model_value`; the dissipation form ``dissipation`` from zeta = 5e-3 up):

@@ -37,7 +37,7 @@ from .contact.linear import check_linear_solver
 from .engines import cylinder, direct, slices, sphere3d
 from .engines.contact_size import estimate_contact_size
 from .geometry import as_geometry, check_geometry
-from .grids import AutoGrid, FixedGrid, check_memory
+from .grids import AutoGrid, FixedGrid, check_memory, edge_smoothing_error
 from .result import RollingResult
 
 __all__ = ["AbstractMethod", "Direct", "DirectElastic", "Full", "Slices", "as_method", "default_method",
@@ -285,6 +285,15 @@ class Full(_GridMethod):
                            edge_order=EDGE_BIAS_ORDER[model.__name__.rsplit(".", 1)[-1]] if self.edge_extrapolation
                            else None)
 
+    def _result(self, model, s, layer, V, material):
+        """The :class:`RollingResult` of solution ``s``, its ``truncation`` raised by the
+        smoothed edge's bias bound (:func:`jaxroll.grids.edge_smoothing_error`)."""
+        out = model.result(s, self.grid, layer, V, material)
+        if self.edge_smoothing is None:
+            return out
+        bias = edge_smoothing_error(self.edge_smoothing, self.edge_extrapolation, model.__name__.rsplit(".", 1)[-1])
+        return eqx.tree_at(lambda r: r.truncation, out, out.truncation + bias)
+
     def evaluate(self, material, layer, R, P, V, geometry):
         """``R_r`` [N, or N/m] from the full model of ``geometry``: the contact solved on the grid's
         window with the model's kernel (:mod:`jaxroll.engines.sphere3d` / :mod:`jaxroll.engines.cylinder`),
@@ -292,7 +301,7 @@ class Full(_GridMethod):
         model = _FULL_MODELS[geometry]
         size = estimate_contact_size(material, layer, R, P, geometry)
         s = self._solve(model, model.kernel_builder(material, layer, self.grid)(V), R, P, size)
-        return model.result(s, self.grid, layer, V, material)
+        return self._result(model, s, layer, V, material)
 
     def evaluate_grid(self, material, layer, R, loads, speeds, geometry):
         """The table ``speeds x loads``: the speed-independent layer work once, the kernel once per
@@ -321,7 +330,7 @@ class Full(_GridMethod):
                 first = jax.tree_util.tree_map(lambda a, b: jnp.where(is_first, a, b),
                                                _contact.WarmStart.of(s.contact), first)
                 return ((_contact.WarmStart.stretched(s.contact, s_next, r_next), first),
-                        model.result(s, self.grid, layer, V, material))
+                        self._result(model, s, layer, V, material))
 
             (_, first), out = jax.lax.scan(step, (first_start, first_start),
                                            (loads, sizes, stretch, ratio, first_load))
@@ -366,7 +375,7 @@ class Full(_GridMethod):
             m, l, r, p, v = at(i)
             kernel = (shared or model.kernel_builder(m, l, self.grid))(v)
             s = self._solve(model, kernel, r, p, sizes[i], init=start)
-            return _contact.WarmStart.stretched(s.contact, s_next, r_next), model.result(s, self.grid, l, v, m)
+            return _contact.WarmStart.stretched(s.contact, s_next, r_next), self._result(model, s, l, v, m)
 
         shape = (self.grid.window,) * self.grid_ndim(geometry)
         out = jax.lax.scan(step, _contact.WarmStart.none(shape), (jnp.arange(n), stretch, ratio))[1]
