@@ -32,10 +32,11 @@ HALF = jr.Layer(H=float("inf"))
 NOISE = 0.02
 
 
-def fit(data, geometry):
+def fit(data, geometry, progress=False):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # the G0-tau-f valley (expected)
-        return fit_material(data, initial=START, layer=HALF, radius=0.02, geometry=geometry, absolute_sigma=True)
+        return fit_material(data, initial=START, layer=HALF, radius=0.02, geometry=geometry, absolute_sigma=True,
+                            progress=progress)
 
 
 def covered(result):
@@ -55,12 +56,13 @@ def main():
     ap.add_argument("--geometry", default="sphere", choices=["sphere", "cylinder"])
     ap.add_argument("--draws", type=int, default=0)
     ap.add_argument("--record", action="store_true")
+    ap.add_argument("--progress", action="store_true", help="one line per evaluation of the first fit")
     args = ap.parse_args()
     g = args.geometry
     data = read_rolling_csv(jr.datasets.path(f"fit_{g}.csv"))
     load = os.getloadavg()[0]
     t, c = time.perf_counter(), time.process_time()
-    first = fit(data, g)
+    first = fit(data, g, args.progress)
     t_first, c_first = time.perf_counter() - t, time.process_time() - c
     show(f"shipped fit_{g}.csv (first fit, compile included; load average {load:.1f} before, "
          f"{os.getloadavg()[0]:.1f} after)", first, t_first, c_first)

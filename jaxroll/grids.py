@@ -617,13 +617,14 @@ CALIBRATED_CONTACT_RATIO = 0.48
 
 
 #: Measured bias of the smoothed contact edge against the exact discrete contact on the default
-#: grid, relative, largest over zeta = 0.01..100 and f = 0.3..3 (benchmarks/edge_smoothing_bias.py):
-#: ``EDGE_BIAS_SCALE[g] * kappa^1.5`` bounds it for kappa = 0.125..1 (sphere: -0.46 / -1.43 /
-#: -3.85 / -8.65 % at kappa = 0.125 / 0.25 / 0.5 / 1; cylinder -0.13 / -0.62 / -2.0 / -5.8 %), and
-#: after the Richardson extrapolation (``Full(edge_extrapolation=True)``) what is left,
-#: ``EDGE_EXTRAPOLATED_BIAS[g]`` (sphere <= 0.07 %, cylinder <= 0.05 % measured).
-EDGE_BIAS_SCALE = {"sphere3d": 0.115, "cylinder": 0.06}
-EDGE_EXTRAPOLATED_BIAS = {"sphere3d": 7e-4, "cylinder": 5e-4}
+#: grid, relative, largest over zeta = 0.01..100 and f = 0.3, 1, 3 (half-space;
+#: benchmarks/edge_smoothing_bias.py): ``EDGE_BIAS_SCALE[g] * kappa^1.5`` is that envelope for
+#: kappa = 0.125..1 (sphere: -0.73 / -2.06 % at kappa = 0.125 / 0.25, f = 3, zeta = 0.1, and
+#: -3.85 / -8.65 % at kappa = 0.5 / 1, f = 1; cylinder -0.13 / -0.62 / -2.0 / -5.8 %, f = 1), and
+#: ``EDGE_EXTRAPOLATED_BIAS[g]`` what is left after the Richardson extrapolation
+#: (``Full(edge_extrapolation=True)``: sphere <= 0.135 %, cylinder <= 0.047 % measured).
+EDGE_BIAS_SCALE = {"sphere3d": 0.17, "cylinder": 0.06}
+EDGE_EXTRAPOLATED_BIAS = {"sphere3d": 1.4e-3, "cylinder": 5e-4}
 
 
 def edge_smoothing_error(kappa, extrapolated, model) -> float:
