@@ -630,7 +630,8 @@ EDGE_EXTRAPOLATED_BIAS = {"sphere3d": 1.4e-3, "cylinder": 5e-4}
 def edge_smoothing_error(kappa, extrapolated, model) -> float:
     """Bound [relative] on the smoothed contact edge's bias (``Full(edge_smoothing=kappa)``, with
     ``extrapolated``: its Richardson extrapolation) for the full ``model`` (``"sphere3d"`` or
-    ``"cylinder"``): :data:`ERROR_SAFETY` times the measured envelope, added to ``truncation``."""
+    ``"cylinder"``): :data:`ERROR_SAFETY` times the measured envelope (the extrapolated model
+    adds it to its ``truncation``: :meth:`jaxroll.Full._result`)."""
     envelope = EDGE_EXTRAPOLATED_BIAS[model] if extrapolated else EDGE_BIAS_SCALE[model] * kappa**1.5
     return ERROR_SAFETY * envelope
 
