@@ -523,6 +523,11 @@ def _check_problem(rolling, dma, initial, free, layer, radius, geometry, method,
     return method
 
 
+#: Default ``rtol`` of :func:`fit_material` with a full model: measured on the 60-point cylinder
+#: benchmark (benchmarks/fit_coverage.py), the cost settles to 1e-7 relative within ~12
+#: evaluations and the iteration then spends as many again on changes of 1e-6 in the parameters.
+FULL_MODEL_RTOL = 1e-7
+
 #: Largest factor by which the grid resolved at the fitted parameters may differ from the grid
 #: of the fit (cell size or window width, either way) before :func:`fit_material` re-resolves
 #: the grid and refits once from the fitted point.
@@ -675,7 +680,7 @@ def fit_material(
     seed=0,
     absolute_sigma=False,
     max_steps=500,
-    rtol=1e-10,
+    rtol=None,
     jac_step=None,
     progress=False,
 ) -> FitResult:
@@ -712,7 +717,10 @@ def fit_material(
             log-uniformly within ``spread_decades`` decades around it (seeded by ``seed``).
         absolute_sigma: treat sigma as absolute (covariance not rescaled by chi^2).
         max_steps: cap on residual evaluations per start; rtol: relative tolerance on the
-            cost reduction and the step, absolute on the gradient.
+            cost reduction and the step, absolute on the gradient (``None``: 1e-10, or
+            :data:`FULL_MODEL_RTOL` for a full model, whose contact solver tolerance and grid
+            ripple make smaller cost changes noise; the intervals are set by a chi^2 change of
+            order 1, 1e7 times larger).
         jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
             differences in the log-parameters with step ``h``, e.g. for models that are only
             piecewise smooth at a fixed resolution (a full model without ``edge_smoothing``:
@@ -740,6 +748,8 @@ def fit_material(
     n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
     if n_res < params.size:
         raise ValueError(f"{n_res} residuals cannot determine {params.size} parameters")
+    if rtol is None:
+        rtol = FULL_MODEL_RTOL if _use_table(method) else 1e-10
     auto = method if method is not None and method.needs_resolution(geometry) else None
     if auto is not None:
         method = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry)
