@@ -718,9 +718,9 @@ def fit_material(
         absolute_sigma: treat sigma as absolute (covariance not rescaled by chi^2).
         max_steps: cap on residual evaluations per start; rtol: relative tolerance on the
             cost reduction and the step, absolute on the gradient (``None``: 1e-10, or
-            :data:`FULL_MODEL_RTOL` for a full model, whose contact solver tolerance and grid
-            ripple make smaller cost changes noise; the intervals are set by a chi^2 change of
-            order 1, 1e7 times larger).
+            :data:`FULL_MODEL_RTOL` for rolling data with the default method, the full model,
+            whose contact solver tolerance and grid ripple make smaller cost changes noise; the
+            intervals are set by a chi^2 change of order 1, 1e7 times larger).
         jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
             differences in the log-parameters with step ``h``, e.g. for models that are only
             piecewise smooth at a fixed resolution (a full model without ``edge_smoothing``:
@@ -740,6 +740,8 @@ def fit_material(
     if solver not in ("trf", "lm"):
         raise ValueError(f"solver must be 'trf' or 'lm', got {solver!r}")
     free = _DEFAULT_FREE[type(initial)] if free is None and type(initial) in _DEFAULT_FREE else free
+    if rtol is None:  # the default full model's tolerance; any named method keeps 1e-10
+        rtol = FULL_MODEL_RTOL if method is None and rolling is not None else 1e-10
     method = _check_problem(rolling, dma, initial, free or (), layer, radius, geometry, method, shift)
     check_plausible("fit_material", radius=radius, H=None if layer is None else layer.H,
                     speed=None if rolling is None else rolling.speed)
@@ -748,8 +750,6 @@ def fit_material(
     n_res = (0 if rolling is None else len(rolling.value)) + (0 if dma is None else 2 * len(dma.omega))
     if n_res < params.size:
         raise ValueError(f"{n_res} residuals cannot determine {params.size} parameters")
-    if rtol is None:
-        rtol = FULL_MODEL_RTOL if _use_table(method) else 1e-10
     auto = method if method is not None and method.needs_resolution(geometry) else None
     if auto is not None:
         method = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry)
