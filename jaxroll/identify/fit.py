@@ -524,10 +524,11 @@ def _check_problem(rolling, dma, initial, free, layer, radius, geometry, method,
 
 
 #: Default ``rtol`` of :func:`fit_material` with the default (full) model: on the 60-point cylinder
-#: benchmark (benchmarks/fit_coverage.py) at rtol 1e-10 the cost reached 1e-5 of its final value in
-#: 12 evaluations and the iteration then spent 9 more on cost changes below 5e-6 (parameters moving
-#: < 0.1 %, against 95 % intervals of +-10-60 %).
-FULL_MODEL_RTOL = 1e-7
+#: benchmark (benchmarks/fit_coverage.py) the cost reached 1e-5 of its final value in 12
+#: evaluations, and at rtol 1e-10 the iteration spent 9 more on cost changes below 5e-6
+#: (parameters moving < 0.1 %). A cost within ``rtol F`` of the minimum puts the parameters within
+#: ``sqrt(2 rtol F)`` standard errors of it: 0.008 for F = 33 (60 points) at 1e-6.
+FULL_MODEL_RTOL = 1e-6
 
 #: Largest factor by which the grid resolved at the fitted parameters may differ from the grid
 #: of the fit (cell size or window width, either way) before :func:`fit_material` re-resolves
@@ -721,7 +722,7 @@ def fit_material(
             cost reduction and the step, absolute on the gradient (``None``: 1e-10, or
             :data:`FULL_MODEL_RTOL` for rolling data with the default method, the full model,
             whose contact solver tolerance and grid ripple make smaller cost changes noise; the
-            intervals are set by a chi^2 change of order 1, 1e7 times larger).
+            intervals are set by a chi^2 change of order 1, 1e6 times larger).
         jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
             differences in the log-parameters with step ``h``, e.g. for models that are only
             piecewise smooth at a fixed resolution (a full model without ``edge_smoothing``:
