@@ -108,7 +108,8 @@ def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
     """Reduced copy of the coverage check: 20 points (every third speed) of fit_cylinder.csv,
     the shipped draw and two fresh ones, started near the truth (one grid, no re-resolution: the
     three fits share one compiled model; the far start is the slow test's); 9 intervals at 95 %:
-    P(hits <= 6) ~ 8e-3 for honest ones."""
+    P(hits <= 6) ~ 8e-3 for honest ones. 447 s at load average ~19 on 2 cores (15 points, every
+    fourth speed, gave 6 of 9: too few speeds across the peak for linearised intervals)."""
     data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
     near = jr.StandardLinearSolid(G0=2.7e6, tau=0.27, f=0.9)
     fits = [_fit(d, "cylinder", near) for d in [data, *_draws(data, range(2))]]
