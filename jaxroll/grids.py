@@ -668,6 +668,26 @@ def full_model_value(moment, dissipation, zeta) -> jax.Array:
 CALIBRATED_CONTACT_RATIO = 0.48
 
 
+#: Measured bias of the smoothed contact edge against the exact discrete contact on the default
+#: grid, relative, largest over zeta = 0.01..100 and f = 0.3, 1, 3 (half-space;
+#: benchmarks/edge_smoothing_bias.py): ``EDGE_BIAS_SCALE[g] * kappa^1.5`` is that envelope for
+#: kappa = 0.125..1 (sphere: -0.73 / -2.06 % at kappa = 0.125 / 0.25, f = 3, zeta = 0.1, and
+#: -3.85 / -8.65 % at kappa = 0.5 / 1, f = 1; cylinder -0.13 / -0.62 / -2.0 / -5.8 %, f = 1), and
+#: ``EDGE_EXTRAPOLATED_BIAS[g]`` what is left after the Richardson extrapolation
+#: (``Full(edge_extrapolation=True)``: sphere <= 0.135 %, cylinder <= 0.047 % measured).
+EDGE_BIAS_SCALE = {"sphere3d": 0.17, "cylinder": 0.06}
+EDGE_EXTRAPOLATED_BIAS = {"sphere3d": 1.4e-3, "cylinder": 5e-4}
+
+
+def edge_smoothing_error(kappa, extrapolated, model) -> float:
+    """Bound [relative] on the smoothed contact edge's bias (``Full(edge_smoothing=kappa)``, with
+    ``extrapolated``: its Richardson extrapolation) for the full ``model`` (``"sphere3d"`` or
+    ``"cylinder"``): :data:`ERROR_SAFETY` times the measured envelope (the extrapolated model
+    adds it to its ``truncation``: :meth:`jaxroll.Full._result`)."""
+    envelope = EDGE_EXTRAPOLATED_BIAS[model] if extrapolated else EDGE_BIAS_SCALE[model] * kappa**1.5
+    return ERROR_SAFETY * envelope
+
+
 #: Largest ratio of the contact size to the layer thickness ``a/H`` in the tables' calibration
 #: (half-spaces and layers much thicker than the contact). On thinner layers the moment and
 #: dissipation forms still bracket the truth (a thin compressible cover, a = 15 H, against the

@@ -39,6 +39,8 @@ With ``smoothing=eps`` the contact edge is smoothed instead (:mod:`jaxroll.conta
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -50,7 +52,7 @@ from .active_set import find_contact_set
 from .linear import GMRES, AbstractLinearSolver, Dense, check_linear_solver
 from .operator import WindowedCompliance
 from .precondition import CirculantPreconditioner
-from .smoothing import smoothed_solve
+from .smoothing import extrapolated_solve, smoothed_solve
 from .system import ContactSystem, flat
 
 __all__ = ["ContactSolution", "WarmStart", "solve_contact"]
@@ -155,6 +157,7 @@ def solve_contact(
     max_steps: int = 50,
     linear_solver: AbstractLinearSolver = GMRES(),
     smoothing=None,
+    smoothing_order: float | None = None,
 ) -> "ContactSolution":
     """Solve frictionless steady-state rolling contact of a rigid profile (any dimension).
 
@@ -201,6 +204,11 @@ def solve_contact(
             smoothed and exact problems differ by ``O(eps)`` in ``d`` and at the edge cells).
             Solved by damped Newton on the smoothed equations, started from the exact
             (active-set) solution.
+        smoothing_order: ``None`` (default) or the order ``q`` of the smoothing's bias
+            (``~ eps^q``): the smoothed solutions at ``eps`` and ``2 eps`` are combined by
+            Richardson extrapolation to ``eps -> 0``
+            (:func:`~jaxroll.contact.smoothing.extrapolated_solve`), still C-infinity; needs
+            ``smoothing``.
     Never raises on a failed solve: the reason is in ``ContactSolution.result``.
 
     Returns:
@@ -226,11 +234,13 @@ def solve_contact(
     if smoothing is not None:
         smoothing = check_input(jnp.asarray(smoothing, dtype=float), ~(jnp.asarray(smoothing) > 0),
                                 "smoothing must be a positive gap scale [m] (or None)")
+    if smoothing_order is not None and (smoothing is None or not smoothing_order > 0):
+        raise ValueError(f"smoothing_order needs smoothing and must be positive; got {smoothing_order!r}")
     if not penetration_mode:
         value = check_input(value, ~(value > 0), "the load must be positive")
     return _solve_contact(compliance, h, value, None if penetration_mode else jnp.asarray(cell_area, dtype=float),
                           initial_contact, warm, smoothing, penetration_mode=penetration_mode, tol=tol,
-                          max_steps=max_steps, solver=solver)
+                          max_steps=max_steps, solver=solver, order=smoothing_order)
 
 
 def _start(h, value, penetration_mode, initial_contact, warm_start):
@@ -254,7 +264,7 @@ def _start(h, value, penetration_mode, initial_contact, warm_start):
 @eqx.filter_jit
 def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, warm, smoothing, *,
                    penetration_mode: bool, tol: float, max_steps: int,
-                   solver: AbstractLinearSolver) -> ContactSolution:
+                   solver: AbstractLinearSolver, order: float | None = None) -> ContactSolution:
     system = ContactSystem.build(compliance, h, value, cell_area, mask0, penetration_mode)
     fixed = system.stopped()
     precond = CirculantPreconditioner.build(compliance, fixed) if solver.preconditioned else None
@@ -288,8 +298,9 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         x = jax.lax.custom_root(lambda x: mv(x) - b, x_exact, lambda f, x0: x0, tangent_solve)
         residual = _exact_residual(system, x, mask)
     else:
-        x, mask, n_it, n_done, residual = smoothed_solve(system, x_exact, smoothing, solver, precond,
-                                                         tol=tol, max_steps=max_steps, robust=robust)
+        smooth = smoothed_solve if order is None else functools.partial(extrapolated_solve, order=order)
+        x, mask, n_it, n_done, residual = smooth(system, x_exact, smoothing, solver, precond,
+                                                 tol=tol, max_steps=max_steps, robust=robust)
         iters, done = iters + n_it, done & n_done
     return _solution(system, x, mask, value, iters, done, residual, tol)
 

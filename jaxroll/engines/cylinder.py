@@ -131,7 +131,8 @@ def kernel_builder(material, layer: Layer, grid: FixedGrid, images: int = IMAGES
 
 
 def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e-10, max_steps=50,
-          edge_smoothing=None, init=None, linear_solver=_contact.GMRES()) -> CylinderSolution:
+          edge_smoothing=None, edge_order=None, init=None,
+          linear_solver=_contact.GMRES()) -> CylinderSolution:
     """Solve the rolling contact of a rigid cylinder (radius ``R`` [m], load per unit length
     ``P'`` [N/m]) on the window of ``grid`` with the operators ``kernel``
     (:func:`kernel_builder`); ``a_est`` [m] is the stationary half-width estimate (initial
@@ -141,7 +142,9 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
     ``edge_smoothing``: ``None`` (exact discrete contact) or ``kappa > 0``: smoothed contact
     edge with ``eps = kappa a^{3/2} a_est^{1/2} / R`` (:func:`jaxroll.contact.edge_gap_scale`),
     which makes ``R_r`` smooth in the parameters for fits (the exact discrete one wiggles by
-    ~1e-3 at low speed when the contact set changes by a cell).
+    ~1e-3 at low speed when the contact set changes by a cell). ``edge_order``: ``None`` or the
+    order ``q`` of the smoothing's bias: Richardson extrapolation from ``kappa`` and ``2 kappa``
+    (``smoothing_order`` of :func:`jaxroll.contact.solve_contact`).
     """
     W, dx = grid.window, grid.spacing
     x = (jnp.arange(W, dtype=float) - 0.5 * (W - 1)) * dx
@@ -151,6 +154,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
         kernel.compliance, h, P, dx, initial_contact=guess, warm_start=init, tol=tol,
         max_steps=max_steps, linear_solver=linear_solver,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, a_est, R),
+        smoothing_order=edge_order,
     )
     p = sol.pressure
     inside = sol.contact

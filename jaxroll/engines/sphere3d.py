@@ -263,7 +263,8 @@ class SphereSolution(eqx.Module):
 
 
 def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e-10, max_steps=50,
-          edge_smoothing=None, init=None, linear_solver=_contact.GMRES()) -> SphereSolution:
+          edge_smoothing=None, edge_order=None, init=None,
+          linear_solver=_contact.GMRES()) -> SphereSolution:
     """Solve the rolling contact of a rigid sphere (radius ``R`` [m], load ``P`` [N]) on the
     window of ``grid`` with the operators ``kernel`` (:func:`kernel_builder`); ``r_est`` [m] is
     the stationary contact radius estimate (initial contact set and the edge smoothing's gap
@@ -275,7 +276,10 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
     ``eps = kappa a^{3/2} r^{1/2} / R`` (``a`` = cell size, ``r`` = the estimated contact radius:
     the Hertz gap one cell outside the edge, up to an O(1) factor), which makes ``R_r`` a smooth
     function of every parameter for least-squares fits, at the price of a bias that vanishes as
-    ``a -> 0`` or ``kappa -> 0``.
+    ``a -> 0`` or ``kappa -> 0``. ``edge_order``: ``None`` or the order ``q`` of that bias
+    (``~ kappa^q``): the smoothed solutions at ``kappa`` and ``2 kappa`` are combined by
+    Richardson extrapolation (``smoothing_order`` of :func:`jaxroll.contact.solve_contact`),
+    which removes most of the bias and stays smooth.
     """
     W = grid.window
     dx = grid.spacing
@@ -287,6 +291,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
         kernel.compliance, h, P, dx * dx, initial_contact=guess, warm_start=init, tol=tol,
         max_steps=max_steps, linear_solver=linear_solver,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, r_est, R),
+        smoothing_order=edge_order,
     )
     p = sol.pressure
     moment = jnp.sum(p * X) * dx * dx / R

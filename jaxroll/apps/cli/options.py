@@ -126,7 +126,9 @@ def method_from_args(args, *, fit=False):
         return jr.Direct(pressure=args.pressure, modulus=MODULI[args.modulus])
     if name == "full":  # no --method: the default's edge smoothing (a fit's smoothed edge) unless given
         default = jr.methods.default_method(args.geometry, fit=fit) if args.method is None else jr.Full()
-        return jr.Full(grid=grid, edge_smoothing=args.edge_smoothing or default.edge_smoothing)
+        if args.edge_smoothing is not None:  # an explicit kappa: that smoothing, not extrapolated
+            return jr.Full(grid=grid, edge_smoothing=args.edge_smoothing)
+        return jr.Full(grid=grid, edge_smoothing=default.edge_smoothing, edge_extrapolation=default.edge_extrapolation)
     return jr.Slices(algorithm=name, n_slices=args.n_slices, grid=grid)
 
 

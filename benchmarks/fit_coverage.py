@@ -1,0 +1,99 @@
+"""Identification with the defaults: time of one fit of the shipped benchmark set and coverage of
+the 95 % intervals over seeded noise draws.
+
+Data: ``jaxroll/datasets/fit_<geometry>.csv`` (fitting/make_fit_benchmark.py: the full model with
+the EXACT discrete contact at twice the default cells per radius, 60 points, 2 % noise; truth
+G0 = 3 MPa, tau = 0.25 s, f = 1). Fit: ``jr.fit_material`` with every default (the method is
+``default_method(geometry, fit=True)``: the smoothed edge extrapolated to kappa -> 0 on a grid
+the fit resolves itself), sigma from the file, ``absolute_sigma=True``, start G0 = 2 MPa,
+tau = 0.35 s, f = 0.7. ``--draws N``: N further fits of the noise-free values (``sigma / 0.02``)
+with fresh noise (numpy default_rng(1000 + i)); reports how many of the 3N intervals hold the
+truth, with the binomial 99 % acceptance range for honest 95 % intervals.
+
+Run: ``python benchmarks/fit_coverage.py [--geometry sphere|cylinder] [--draws 30] [--record]``
+(``--record`` stores the figures in benchmarks/numbers.json). Times: wall clock and the process's
+CPU time (all threads; on a loaded machine the CPU time is the better measure of the work).
+"""
+
+import argparse
+import os
+import time
+import warnings
+
+import numpy as np
+from scipy.stats import binom
+
+import jaxroll as jr
+from jaxroll.identify.fit import IdentifiabilityWarning, RollingData, fit_material, read_rolling_csv
+
+TRUE = {"G0": 3e6, "tau": 0.25, "f": 1.0}
+START = jr.StandardLinearSolid(G0=2e6, tau=0.35, f=0.7)
+HALF = jr.Layer(H=float("inf"))
+NOISE = 0.02
+
+
+def fit(data, geometry, progress=False):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentifiabilityWarning)  # the G0-tau-f valley (expected)
+        return fit_material(data, initial=START, layer=HALF, radius=0.02, geometry=geometry, absolute_sigma=True,
+                            progress=progress)
+
+
+def covered(result):
+    return {n: bool(result.ci95[n][0] <= TRUE[n] <= result.ci95[n][1]) for n in TRUE}
+
+
+def show(tag, result, seconds, cpu=None):
+    cells = ", ".join(f"{n} {float(result.params[n]):.5g} [{float(result.ci95[n][0]):.4g}, "
+                      f"{float(result.ci95[n][1]):.4g}]" for n in TRUE)
+    print(f"{tag}: {cells}; chi2/dof {result.reduced_chi2:.3f}; converged {result.converged}; "
+          f"{len(result.starts)} run(s); {seconds:.1f} s wall" + ("" if cpu is None else f", {cpu:.1f} s CPU") +
+          f"; covered {covered(result)}", flush=True)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--geometry", default="sphere", choices=["sphere", "cylinder"])
+    ap.add_argument("--draws", type=int, default=0)
+    ap.add_argument("--record", action="store_true")
+    ap.add_argument("--progress", action="store_true", help="one line per evaluation of the first fit")
+    args = ap.parse_args()
+    g = args.geometry
+    data = read_rolling_csv(jr.datasets.path(f"fit_{g}.csv"))
+    load = os.getloadavg()[0]
+    t, c = time.perf_counter(), time.process_time()
+    first = fit(data, g, args.progress)
+    t_first, c_first = time.perf_counter() - t, time.process_time() - c
+    show(f"shipped fit_{g}.csv (first fit, compile included; load average {load:.1f} before, "
+         f"{os.getloadavg()[0]:.1f} after)", first, t_first, c_first)
+    t, c = time.perf_counter(), time.process_time()
+    again = fit(data, g)
+    show("the same fit again (compiled)", again, time.perf_counter() - t, time.process_time() - c)
+    if args.draws:
+        clean = np.asarray(data.sigma) / NOISE
+        hits, total, per = 0, 0, dict.fromkeys(TRUE, 0)
+        t = time.perf_counter()
+        for i in range(args.draws):
+            y = clean * (1 + NOISE * np.random.default_rng(1000 + i).standard_normal(clean.size))
+            r = fit(RollingData(data.speed, data.load, y, data.sigma), g)
+            c = covered(r)
+            for n in c:
+                per[n] += c[n]
+            hits, total = hits + sum(c.values()), total + len(c)
+            show(f"draw {i}", r, time.perf_counter() - t)
+        lo, hi = binom.ppf(0.005, total, 0.95), binom.ppf(0.995, total, 0.95)
+        print(f"coverage: {hits}/{total} = {hits / total:.3f} (per parameter {per}); honest 95 % intervals give "
+              f"{lo:.0f}..{hi:.0f} with 99 % probability; {time.perf_counter() - t:.0f} s, load average "
+              f"{os.getloadavg()[0]:.1f}")
+    if args.record:
+        from _numbers import record
+
+        record(f"fit_{g}", {"first_fit_s": round(t_first, 1), "first_fit_cpu_s": round(c_first, 1),
+                             "load_average": round(load, 1),
+                             "params": {n: float(first.params[n]) for n in TRUE},
+                             "ci95": {n: [float(x) for x in first.ci95[n]] for n in TRUE},
+                             **({"coverage": [hits, total]} if args.draws else {})})
+
+
+if __name__ == "__main__":
+    main()

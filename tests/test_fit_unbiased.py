@@ -1,0 +1,147 @@
+"""Identification without bias: the fitting default (the smoothed contact edge extrapolated to
+kappa -> 0, ``default_method(fit=True)``) is smooth in the parameters and agrees with the exact
+discrete contact on the same grid, and fits of data from the exact contact at twice the default
+cells per radius (jaxroll/datasets/fit_*.csv) hold the truth in their 95 % intervals.
+
+Default suite: the cylinder (one grid, compiled once). Slow: the 60-point sphere fit and the
+coverage over seeded noise draws (benchmarks/fit_coverage.py records the figures)."""
+
+import functools
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.stats import binom
+
+import jaxroll as jr
+from jaxroll.identify.fit import IdentifiabilityWarning, RollingData, fit_material, read_rolling_csv
+from jaxroll.methods import default_method
+
+HALF = jr.Layer(H=jnp.inf)
+R = 0.02
+TRUE = {"G0": 3e6, "tau": 0.25, "f": 1.0}
+START = jr.StandardLinearSolid(G0=2e6, tau=0.35, f=0.7)
+
+# the cylinder at 10 kN/m (a0 = 4.6 mm), zeta = V tau/a0 = 0.1 and 1, on the default grid of the
+# pair (12 cells per half-width, the coarsest the rule gives): one grid, one program per model
+P_LINE = 1e4
+SPEEDS = np.array([1.84e-3, 1.84e-2])
+GRID = jr.Full().resolve(jr.StandardLinearSolid(**TRUE), HALF, radius=R, loads=P_LINE, speeds=SPEEDS,
+                         geometry="cylinder").grid
+EXACT = jr.Full(grid=GRID)
+FIT_MODEL = jr.Full(grid=GRID, edge_smoothing=default_method(fit=True).edge_smoothing, edge_extrapolation=True)
+
+
+@functools.partial(jax.jit, static_argnums=2)
+def _line(log_g0, V, method):
+    mat = jr.StandardLinearSolid(G0=jnp.exp(log_g0), tau=TRUE["tau"], f=TRUE["f"])
+    return jnp.log(jr.rolling_resistance(mat, HALF, radius=R, load=P_LINE, speed=V, geometry="cylinder",
+                                         method=method, throw=False).value)
+
+
+def test_the_fitting_default_is_the_extrapolated_smoothed_edge():
+    m = default_method("cylinder", fit=True)
+    assert m.edge_smoothing is not None and m.edge_extrapolation
+    with pytest.raises(ValueError, match="edge_extrapolation"):
+        jr.Full(edge_extrapolation=True)  # needs a smoothing to extrapolate
+
+
+@pytest.mark.parametrize("V", SPEEDS)
+def test_extrapolated_edge_matches_the_exact_contact_and_its_own_finite_differences(V):
+    lg = jnp.log(TRUE["G0"])
+    exact, fit = float(_line(lg, V, EXACT)), float(_line(lg, V, FIT_MODEL))
+    # against the exact discrete contact on the same grid: the smoothing at kappa = 0.125 alone is
+    # -0.13 / -0.05 % (benchmarks/edge_smoothing_bias.py); after extrapolation the higher-order
+    # terms and the exact contact's own jitter at a contact-set change (~0.05 %) remain
+    assert abs(fit - exact) < 1e-3, 100 * (fit - exact)
+    # against the exact 2D solution: the default grid's own error (<= 0.5 % by the grid rule)
+    ref = float(jr.reference.exact_cylinder_halfspace(jr.StandardLinearSolid(**TRUE), R, P_LINE, V).rolling_resistance)
+    assert abs(fit - np.log(ref)) < 5e-3
+    # d ln R / d ln G0 by forward mode (implicit function theorem through both smoothed solves)
+    # against central differences with step 1e-3: truncation ~1e-6, solver noise 1e-10/1e-3
+    slope = float(jax.jacfwd(_line)(lg, V, FIT_MODEL))
+    fd = (float(_line(lg + 1e-3, V, FIT_MODEL)) - float(_line(lg - 1e-3, V, FIT_MODEL))) / 2e-3
+    assert slope == pytest.approx(fd, abs=1e-4)
+
+
+def test_extrapolated_edge_has_consistent_derivatives_along_a_parameter_line():
+    """Along G0 = 3 MPa x exp(-0.1..0.1) at zeta = 0.1 the contact half-width crosses two cells;
+    the exact contact's forward-mode slope misses the edge motion there (the issue's +0.19 vs
+    -0.61 on the sphere), the smoothed and extrapolated model's slope must equal its central
+    differences (step 1e-3: truncation ~1e-6 times the ripple's curvature, ~1e-4) at every point.
+
+    Not asserted, measured (benchmarks/edge_smoothing_bias.py and docs/methods.md): on 12 cells
+    per half-width the cylinder's R_r(G0) ripples by 0.25 % peak to peak with period ~0.09 in
+    ln G0 (one cell of the edge), for the exact and the extrapolated model alike."""
+    for lg in np.log(TRUE["G0"]) + np.linspace(-0.1, 0.1, 6):
+        slope = float(jax.jacfwd(_line)(lg, SPEEDS[0], FIT_MODEL))
+        fd = (float(_line(lg + 1e-3, SPEEDS[0], FIT_MODEL)) - float(_line(lg - 1e-3, SPEEDS[0], FIT_MODEL))) / 2e-3
+        assert slope == pytest.approx(fd, abs=2e-3), (lg, slope, fd)
+
+
+def _fit(data, geometry, start=START):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentifiabilityWarning)  # the G0-tau-f valley (expected)
+        return fit_material(data, initial=start, layer=HALF, radius=R, geometry=geometry, absolute_sigma=True)
+
+
+def _covered(result):
+    return sum(bool(result.ci95[n][0] <= TRUE[n] <= result.ci95[n][1]) for n in TRUE)
+
+
+def _subset(data, every):
+    """Every ``every``-th speed of each load of a shipped benchmark set (speeds inner)."""
+    keep = np.arange(len(data.speed)) % 12 % every == 0
+    return RollingData(data.speed[keep], data.load[keep], data.value[keep], data.sigma[keep])
+
+
+def _draws(data, seeds):
+    clean = np.asarray(data.sigma) / 0.02  # the files' sigma is 2 % of the noise-free value
+    for s in seeds:
+        y = clean * (1 + 0.02 * np.random.default_rng(1000 + s).standard_normal(clean.size))
+        yield RollingData(data.speed, data.load, y, data.sigma)
+
+
+def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
+    """Reduced copy of the coverage check: 20 points (every third speed) of fit_cylinder.csv,
+    the shipped draw and two fresh ones, started near the truth (one grid, no re-resolution: the
+    three fits share one compiled model; the far start is the slow test's); 9 intervals at 95 %:
+    P(hits <= 6) ~ 8e-3 for honest ones. 447 s at load average ~19 on 2 cores (15 points, every
+    fourth speed, gave 6 of 9: too few speeds across the peak for linearised intervals)."""
+    data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
+    near = jr.StandardLinearSolid(G0=2.7e6, tau=0.27, f=0.9)
+    fits = [_fit(d, "cylinder", near) for d in [data, *_draws(data, range(2))]]
+    assert all(f.converged for f in fits)
+    assert isinstance(fits[0].method.grid, jr.FixedGrid)  # resolved by the fit itself
+    assert all(len(f.starts) == 1 for f in fits)  # the near start needs no second grid
+    hits = sum(_covered(f) for f in fits)
+    assert hits >= 7, [(f.params, f.ci95) for f in fits]
+
+
+def _coverage(geometry, n):
+    data = read_rolling_csv(jr.datasets.path(f"fit_{geometry}.csv"))
+    fits = [_fit(d, geometry) for d in _draws(data, range(n))]
+    hits, total = sum(_covered(f) for f in fits), 3 * n
+    # the lower 0.5 % quantile of Binomial(total, 0.95): honest intervals fail this 1 time in 200
+    return hits, total, binom.ppf(0.005, total, 0.95)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("geometry", ["cylinder", "sphere"])
+def test_sixty_point_fit_recovers_the_truth(geometry):
+    """The 60-point shipped set with every default: the truth inside the 95 % intervals and a
+    reduced chi^2 consistent with the 2 % noise (57 dof: 1 +- 0.19)."""
+    fit = _fit(read_rolling_csv(jr.datasets.path(f"fit_{geometry}.csv")), geometry)
+    assert fit.converged
+    assert _covered(fit) == 3, (fit.params, fit.ci95)
+    assert 0.5 < fit.reduced_chi2 < 1.6
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("geometry,n", [("cylinder", 30), ("sphere", 20)])
+def test_interval_coverage(geometry, n):
+    hits, total, lowest = _coverage(geometry, n)
+    print(f"{geometry}: {hits}/{total} intervals hold the truth")
+    assert hits >= lowest, (hits, total)
