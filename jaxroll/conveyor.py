@@ -128,11 +128,15 @@ def trough_loads(*, belt_width, belt_mass, bulk_mass, spacing, roll_length=None,
     r"""Normal loads on the rolls of a flat or three-roll (equal rolls) idler set.
 
     Args:
-        belt_width ``B`` [m]; belt_mass ``m_B`` [kg/m] and bulk_mass ``m_G`` [kg/m] per metre of
-            conveyor; spacing ``s`` [m] between idler sets (each set carries ``s`` metres).
-        roll_length ``l`` [m] of each of the three rolls (``None`` or ``trough_angle = 0``: a flat
-            idler of one roll under the whole belt).
-        trough_angle ``lambda`` [rad] of the wing rolls; surcharge_angle ``theta`` [rad].
+        belt_width: belt width ``B`` [m].
+        belt_mass: belt mass ``m_B`` per metre of conveyor [kg/m].
+        bulk_mass: bulk mass ``m_G`` per metre of conveyor [kg/m].
+        spacing: spacing ``s`` between idler sets [m] (each set carries ``s`` metres).
+        roll_length: length ``l`` of each of the three rolls [m] (``None`` or
+            ``trough_angle = 0``: a flat idler of one roll under the whole belt).
+        trough_angle: trough angle ``lambda`` of the wing rolls [rad].
+        surcharge_angle: surcharge angle ``theta`` of the bulk [rad].
+        g: gravitational acceleration [m/s^2].
 
     Load sharing (stated assumption). The bulk cross-section is that of ISO 5048 / DIN 22101 for
     three equal rolls: over the usable width ``b`` (:func:`_usable_width`) a trapezoid of height

@@ -104,9 +104,12 @@ def add_parser(sub) -> None:
                    help="load per unit contact width [N/m], comma-separated")
     p.add_argument("--contact-length", dest="contact_length", type=positive("--contact-length [m]"), default=1.0,
                    help="with --line-load: the belt's contact length on the idler [m] for F_ir per idler (1)")
-    p.add_argument("--belt-width", dest="belt_width", type=positive("--belt-width [m]"), default=None)
-    p.add_argument("--belt-mass", dest="belt_mass", type=nonnegative("--belt-mass [kg/m]"), default=None)
-    p.add_argument("--bulk-mass", dest="bulk_mass", type=nonnegative("--bulk-mass [kg/m]"), default=None)
+    p.add_argument("--belt-width", dest="belt_width", type=positive("--belt-width [m]"), default=None,
+                   help="belt width [m] (with --belt-mass, --bulk-mass, --idler-spacing: loads from the bulk)")
+    p.add_argument("--belt-mass", dest="belt_mass", type=nonnegative("--belt-mass [kg/m]"),
+                   default=None, help="belt mass per metre of belt [kg/m]")
+    p.add_argument("--bulk-mass", dest="bulk_mass", type=nonnegative("--bulk-mass [kg/m]"),
+                   default=None, help="bulk (conveyed material) mass per metre of belt [kg/m]")
     p.add_argument("--idler-spacing", dest="idler_spacing", type=positive("--idler-spacing [m]"), default=None,
                    help="spacing of the idler sets [m]")
     p.add_argument("--roll-length", dest="roll_length", type=positive("--roll-length [m]"), default=None,
