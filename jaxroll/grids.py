@@ -725,9 +725,9 @@ def full_model_error(moment, dissipation, zeta, cells, geometry, contact_ratio=1
 
 
 def _rule_cells(zeta, breadth, geometry, ladder, cap):
-    err = np.asarray(dissipation_error(np.full(len(ladder), zeta), np.asarray(ladder, float), geometry, breadth))
-    fit = [c for c, e in zip(ladder, err) if e <= TARGET_ERROR and c <= cap]
-    return fit[0] if fit else cap
+    """The fewest cells of ``ladder`` (at most ``cap``) whose envelope at ``(zeta, breadth)`` meets
+    :data:`TARGET_ERROR`; ``cap`` if none."""
+    return _rule_cells_array([zeta], [breadth], geometry, ladder, cap)[0].item()
 
 
 def _rule_cells_array(zeta, breadth, geometry, ladder, cap) -> np.ndarray:
