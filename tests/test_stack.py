@@ -121,7 +121,10 @@ def _perriot_barthel(t, mu1, mu0, nu1, nu0):
     J. Mater. Res. 19 (2004) 600, u(k) = 2(1-nu1^2)/E1 C(kh) p(k)/k with
     C = [1 + 4 b t e^{-2t} - a b e^{-4t}]/[1 - (a + b + 4 b t^2) e^{-2t} + a b e^{-4t}],
     a = (alpha g0 - g1)/(1 + alpha g0), b = (alpha - 1)/(alpha + g1), alpha = mu1/mu0,
-    g = 3 - 4 nu."""
+    g = 3 - 4 nu. This closed form was written from the literature without the paper at hand: it
+    reduces exactly to the layer on a rigid base (mu0 -> inf, alpha -> 0) and to the homogeneous
+    half-space (alpha = 1), and is independent of the library's transfer-matrix code; check it
+    against the paper's equation before quoting the citation further."""
     g1, g0 = 3 - 4 * nu1, 3 - 4 * nu0
     al = mu1 / mu0
     a, b = (al * g0 - g1) / (1 + al * g0), (al - 1) / (al + g1)
