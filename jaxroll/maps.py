@@ -91,7 +91,11 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
 
     Args:
         material: e.g. the :class:`PronyFit`'s ``material``; shift: its WLF/Arrhenius law.
-        layer: :class:`jaxroll.Layer` (its ``H`` [m] is the thickness differentiated).
+        layer: :class:`jaxroll.Layer` (its ``H`` [m] is the thickness differentiated), or a
+            :class:`jaxroll.Stack` whose top ply holds ``material`` (or the stack alone,
+            ``layer=None``): each point shifts the top ply by ``shift`` and every ply or
+            half-space base of a temperature-shifted material by its own law
+            (:func:`models_at`); ``dR_dH`` is then the top ply's thickness.
         radius [m], load [N, or N/m for a cylinder]; temperatures [K], speeds [m/s]: 1D axes.
         geometry: ``"sphere"`` or ``"cylinder"``.
         method: a method object or shortcut; default :func:`jaxroll.methods.default_method`
@@ -156,7 +160,9 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     at the points ``(temperatures[i], speeds[i], loads[i])`` (1D arrays of one length, K, m/s,
     N or N/m) of a temperature-shifted material on ``layer``, with ``dR_r/dT``, ``dR_r/dH``
     (the thickness of the layer, or of the top ply of a layer-like object) and the derivative
-    along each of ``directions`` (pytrees shaped like ``material``: tangents of its parameters),
+    along each of ``directions`` (pytrees shaped like ``material``: tangents of its parameters;
+    with a :class:`jaxroll.Stack`, of the top ply's compound, every shifted ply at the point's
+    temperature: :func:`models_at`),
     one compiled program per grid class; the points are solved in the order of the reduced speed
     ``V a_T`` and then the load. ``measured_temperatures``/``measured_frequencies``: as in
     :func:`resistance_map` (points outside are ``RESULTS.outside_measured_range``)."""
