@@ -336,9 +336,9 @@ def _check_cover(material, shift, layer):
         return
     top = layer.plies[0].material
     if isinstance(top, AtTemperature):
-        same = eqx.tree_equal(top.material, material) is True and eqx.tree_equal(top.shift, shift) is True
+        same = bool(eqx.tree_equal(top.material, material)) and bool(eqx.tree_equal(top.shift, shift))
     else:
-        same = top is material or eqx.tree_equal(top, material) is True
+        same = top is material or bool(eqx.tree_equal(top, material))
     if not same:
         raise ValueError("a map of a jr.Stack shifts its top ply's material, which must be the map's material (or "
                          "jr.at_temperature(material, shift, T) of it): give the cover compound at shift.T_ref as "
