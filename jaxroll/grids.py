@@ -690,7 +690,7 @@ CALIBRATED_CONTACT_RATIO = 0.48
 #: measured 0.82..1.02 over the tables' calibration and validation sets (the lowest: the
 #: cylinder, SLS f = 3, at the loss peak zeta = 1, whose contact is shifted and asymmetric), and
 #: 0.93..1.04 over the shipped measured material's map and SLS f = 3, 30 at zeta = 10..1000
-#: (``benchmarks/dynamic_contact.py``).
+#: (``benchmarks/dynamic_contact.py --quick``).
 DYNAMIC_CONTACT_RATIO = 0.8
 
 
