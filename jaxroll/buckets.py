@@ -8,7 +8,8 @@ by the grid each asks for alone; each group is solved in one warm-started ``lax.
 (:meth:`jaxroll.methods.Full.evaluate_points`) in the order of its speeds, on its own grid, so
 the numbers are the per-point front door's. The window is static and the cell size traced, so
 the groups of one class share a compiled program; the groups are padded to a power of two
-(points not solved, ``count``) so that groups of other sizes share it too.
+(points not solved, ``count``), the groups of one class to that of its largest
+(:func:`class_lengths`), so that groups of other sizes share it too.
 """
 
 from __future__ import annotations
@@ -21,18 +22,31 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["padded", "compiled", "evaluate_buckets"]
+__all__ = ["padded", "class_lengths", "compiled", "evaluate_buckets"]
 
 #: Compiled programs by function, static configuration and argument shapes (:func:`compiled`).
 _PROGRAMS: dict = {}
 
 
-def padded(idx) -> tuple:
-    """``(indices, count)``: ``idx`` padded to a power of two (at least 8) with copies of its
-    last entry, and the number of real entries."""
+def padded(idx, at_least=8) -> tuple:
+    """``(indices, count)``: ``idx`` padded to a power of two (at least 8, and at least
+    ``at_least``) with copies of its last entry, and the number of real entries."""
     idx = np.asarray(idx)
-    size = max(8, 1 << int(math.ceil(math.log2(max(idx.size, 1)))))
+    size = max(8, 1 << int(math.ceil(math.log2(max(idx.size, at_least, 1)))))
     return np.concatenate([idx, np.full(size - idx.size, idx[-1])]), idx.size
+
+
+def class_lengths(windows, sizes) -> list:
+    """For each group (its grid's static ``windows[i]``, ``None`` without a grid, and its
+    number of points ``sizes[i]``) the number of points of the largest group of its window, the
+    length to pad it to: the automatic grid's groups of one class differ only in their cell size
+    (the counting size of :func:`jaxroll.grids.counting_size`, below the relaxed one), and padded
+    alike they share one compiled program (padding points are not solved: each costs a skipped
+    scan step)."""
+    longest = {}
+    for w, n in zip(windows, sizes):
+        longest[w] = max(longest.get(w, 0), n)
+    return [longest[w] for w in windows]
 
 
 def compiled(fn, args, static) -> tuple:
@@ -74,11 +88,12 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
     compile_s = run_s = 0.0
     if buckets is None:
         buckets = method.grid.buckets(material, layer, radius, loads, speeds, geometry)
-    for grid, idx in buckets:
+    lengths = class_lengths([g.window for g, _ in buckets], [len(i) for _, i in buckets])
+    for (grid, idx), length in zip(buckets, lengths):
         m = eqx.tree_at(lambda x: x.grid, method, grid)
         m.check_memory(geometry)
         idx = idx[np.argsort(speeds[idx], kind="stable")]
-        pad, count = padded(idx)
+        pad, count = padded(idx, length)
         args = (m.dynamic(), material, layer, jnp.asarray(radius, float), jnp.asarray(loads[pad]),
                 jnp.asarray(speeds[pad]), jnp.asarray(count))
         call, c = compiled(_points_program, args, dict(geometry=geometry))

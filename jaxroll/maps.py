@@ -169,6 +169,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     import time
 
     from ._numerics import check_roller_values
+    from .buckets import class_lengths
     from .result import RESULTS
 
     material, layer = _split_stack(material, layer)
@@ -186,8 +187,11 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     # speed V a_T (up to the layer's inertia): each class is solved in that order, then the load
     Vr = V * np.exp(np.asarray(shift.log_shift(jnp.asarray(T))))
     directions = tuple(directions)
-    programs = [_bucket_program(m, idx, Vr, P, T, V, material, shift, layer, radius, directions, geometry, reduced)
-                for m, idx, reduced in _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry)]
+    buckets = _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry)
+    lengths = class_lengths([getattr(getattr(m, "grid", None), "window", None) for m, _, _ in buckets],
+                            [len(idx) for _, idx, _ in buckets])
+    programs = [_bucket_program(m, idx, Vr, P, T, V, material, shift, layer, radius, directions, geometry, reduced,
+                                length) for (m, idx, reduced), length in zip(buckets, lengths)]
     v, code, dT, dH, a = (np.empty(T.size) for _ in range(5))
     dd = np.empty((len(directions), T.size))
     t0 = time.perf_counter()
@@ -232,17 +236,19 @@ def _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry) 
     return out
 
 
-def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, directions, geometry, reduced):
+def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, directions, geometry, reduced,
+                    length=8):
     """``(call, args, points)`` of :func:`_map_program` compiled for the points ``idx`` in the
     order of the reduced speed ``Vr`` and then the load (``points``: them in that order, the
-    order of the outputs' first ``len(idx)`` entries), padded (:func:`jaxroll.buckets.padded`)
-    so that classes of other sizes share the program, kept by its static configuration and
+    order of the outputs' first ``len(idx)`` entries), padded (:func:`jaxroll.buckets.padded`, to
+    at least ``length`` points: :func:`jaxroll.buckets.class_lengths`) so that buckets and classes
+    of other sizes share the program, kept by its static configuration and
     shapes (:func:`jaxroll.buckets.compiled`: a new material value, cell size or temperature
     compiles nothing)."""
     from .buckets import compiled, padded
 
     idx = idx[np.lexsort((P[idx], np.round(np.log(Vr[idx]), 12)))]
-    pad, count = padded(idx)
+    pad, count = padded(idx, length)
     args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(P[pad]),
             jnp.asarray(T[pad]), jnp.asarray(V[pad]), jnp.asarray(count), directions)
     call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced))

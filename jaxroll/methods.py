@@ -35,10 +35,9 @@ import numpy as np
 from . import contact as _contact
 from .contact.linear import check_linear_solver
 from .engines import cylinder, direct, slices, sphere3d
-from .engines.contact_size import estimate_contact_size
 from .engines.stack import models
 from .geometry import as_geometry, check_geometry
-from .grids import AutoGrid, FixedGrid, check_memory, edge_smoothing_error
+from .grids import AutoGrid, FixedGrid, check_memory, counting_size, edge_smoothing_error
 from .result import RollingResult
 
 __all__ = ["AbstractMethod", "Direct", "DirectElastic", "Full", "Slices", "as_method", "default_method",
@@ -309,7 +308,7 @@ class Full(_GridMethod):
         window with the model's kernel (:mod:`jaxroll.engines.sphere3d` / :mod:`jaxroll.engines.cylinder`),
         ``R_r = (1/R) sum p x dA`` of the solved pressure."""
         model = _FULL_MODELS[geometry]
-        size = estimate_contact_size(material, layer, R, P, geometry)
+        size = counting_size(material, layer, R, P, V, geometry)
         s = self._solve(model, model.kernel_builder(material, layer, self.grid)(V), R, P, size)
         return self._result(model, s, layer, V, material)
 
@@ -318,13 +317,11 @@ class Full(_GridMethod):
         speed (a ``lax.scan`` over speeds: memory bounded), the loads of a speed in a ``lax.scan``
         in the given order (give loads sorted). Each solve starts from its neighbour
         (:meth:`jaxroll.contact.WarmStart.stretched`): the previous load's solution stretched by
-        the ratio of the stationary size estimates, or for a speed's first load the previous
+        the ratio of the counting sizes (:func:`jaxroll.grids.counting_size`), or for a speed's first load the previous
         speed's first solution. Each point equals :meth:`evaluate` to the solver tolerance."""
         model = _FULL_MODELS[geometry]
         build = model.kernel_builder(material, layer, self.grid)
-        sizes = jax.vmap(lambda P: estimate_contact_size(material, layer, R, P, geometry))(loads)
-        # the stretch and load ratio from each load to the next (the last pair is not used)
-        stretch = jnp.append(sizes[1:] / sizes[:-1], 1.0)
+        # the load ratio from each load to the next (the last pair is not used)
         ratio = jnp.append(loads[1:] / loads[:-1], 1.0)
         shape = (self.grid.window,) * self.grid_ndim(geometry)
 
@@ -332,6 +329,8 @@ class Full(_GridMethod):
 
         def one_speed(first_start, V):
             kernel = build(V)
+            sizes = jax.vmap(lambda P: counting_size(material, layer, R, P, V, geometry))(loads)
+            stretch = jnp.append(sizes[1:] / sizes[:-1], 1.0)  # from each load's size to the next
 
             def step(carry, args):
                 start, first = carry
@@ -354,8 +353,8 @@ class Full(_GridMethod):
         along ``order`` (default: as given; ``count``, a traced integer: only the first
         ``count`` points of that order are solved, the others, padding that lets batches of
         different lengths share one compiled program, come back zero): each solve starts from the previous point's
-        solution (:meth:`jaxroll.contact.WarmStart.stretched` by the ratio of the stationary
-        size estimates and of the loads), so give an order in which neighbours are alike (e.g.
+        solution (:meth:`jaxroll.contact.WarmStart.stretched` by the ratio of the counting
+        sizes, :func:`jaxroll.grids.counting_size`, and of the loads), so give an order in which neighbours are alike (e.g.
         sorted by speed, or by reduced speed ``V a_T`` over temperatures). Unlike ``jax.vmap``
         of :meth:`evaluate`, whose while loops run every lane to the slowest lane's count from a
         cold start, each point costs about a point of :meth:`evaluate_grid`'s table, plus its own
@@ -371,8 +370,8 @@ class Full(_GridMethod):
         at = functools.partial(_take, args, axes)  # the point at an index
 
         def size_and_load(i):
-            m, l, r, p, _ = at(i)
-            return estimate_contact_size(m, l, r, p, geometry), jnp.asarray(p, float)
+            m, l, r, p, v = at(i)
+            return counting_size(m, l, r, p, v, geometry), jnp.asarray(p, float)
 
         sizes, loads = jax.vmap(size_and_load)(jnp.arange(n))
         # the stretch and load ratio from each point to the next (the last pair is not used)

@@ -135,8 +135,8 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
           linear_solver=_contact.GMRES()) -> CylinderSolution:
     """Solve the rolling contact of a rigid cylinder (radius ``R`` [m], load per unit length
     ``P'`` [N/m]) on the window of ``grid`` with the operators ``kernel``
-    (:func:`kernel_builder`); ``a_est`` [m] is the stationary half-width estimate (initial
-    contact set, edge smoothing); ``init`` an optional :class:`jaxroll.contact.WarmStart` (a solved neighbour).
+    (:func:`kernel_builder`); ``a_est`` [m] is the half-width estimate the grid counts its cells on
+    (:func:`jaxroll.grids.counting_size`; initial contact set, edge smoothing, error estimate); ``init`` an optional :class:`jaxroll.contact.WarmStart` (a solved neighbour).
     Never raises: see ``contact.result``.
 
     ``edge_smoothing``: ``None`` (exact discrete contact) or ``kappa > 0``: smoothed contact
@@ -173,7 +173,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, a_est, *, tol=1e
 
 def result(s: CylinderSolution, grid: FixedGrid, layer, V, material) -> RollingResult:
     """The :class:`~jaxroll.result.RollingResult`: the dissipation form of R_r with its error
-    estimate (:func:`jaxroll.grids.full_model_error` at the regime of the estimated contact)."""
+    estimate (:func:`jaxroll.grids.full_model_error` at the regime of the counting size)."""
     a = s.estimated_half_width
     zeta, breadth = regime(material, V, a)
     ok = grid.period_ok(s.estimated_half_width, V * material.longest_time(), 1)

@@ -267,8 +267,8 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
           linear_solver=_contact.GMRES()) -> SphereSolution:
     """Solve the rolling contact of a rigid sphere (radius ``R`` [m], load ``P`` [N]) on the
     window of ``grid`` with the operators ``kernel`` (:func:`kernel_builder`); ``r_est`` [m] is
-    the stationary contact radius estimate (initial contact set and the edge smoothing's gap
-    scale); ``init`` an optional :class:`jaxroll.contact.WarmStart` (a solved neighbour). Never raises: see
+    the contact radius estimate the grid counts its cells on (:func:`jaxroll.grids.counting_size`;
+    initial contact set, the edge smoothing's gap scale, the error estimate's regime and cells); ``init`` an optional :class:`jaxroll.contact.WarmStart` (a solved neighbour). Never raises: see
     ``contact.result``.
 
     ``edge_smoothing``: ``None`` (exact discrete complementarity) or ``kappa > 0``: the smoothed
@@ -309,7 +309,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
 
 def result(s: SphereSolution, grid: FixedGrid, layer, V, material) -> RollingResult:
     """The :class:`~jaxroll.result.RollingResult`: the dissipation form of R_r with its error
-    estimate (:func:`jaxroll.grids.full_model_error` at the regime of the estimated contact)."""
+    estimate (:func:`jaxroll.grids.full_model_error` at the regime of the counting size)."""
     a = s.estimated_radius
     zeta, breadth = regime(material, V, a)
     return full_model_result(
