@@ -186,9 +186,11 @@ def default_grid_accuracy(numbers: dict) -> str:
     for r in sec["rows"]:
         other_load = 0.0 if r["load"] in (100.0, 1e4) else r["load"]  # the study's loads: 100 N, 10 kN/m
         points.setdefault((r["validation"], r["material"], other_load, r["zeta"]), {})[r["geometry"]] = r
-    lines = [f"Written from {_forms_source(sec)}: the default grid's cells per estimated contact radius, the "
-             "error [%] of the reported value and, in brackets, its `truncation` [%]; rows in brackets are the "
-             "validation set (points off the tables' calibration); - : the study has no run at the rule's cells.",
+    lines = [f"Written from {_forms_source(sec)}: the default grid's cells per counting contact size, the "
+             "error [%] of the study's run at that grid and, in brackets, the `truncation` [%] the default "
+             "reports; rows in brackets are the validation set (points off the tables' calibration). The study's "
+             "runs count cells on the relaxed contact size; the one used is the finest not finer than the "
+             "default's grid (named where its count differs); - : none.",
              "", "| point | cylinder | sphere |", "|---|---|---|"]
     bounded = total = 0
     for key in sorted(points, key=lambda k: (k[0], list(_FORMS_MATERIALS).index(k[1]), k[2], k[3] < 0, abs(k[3]))):
@@ -201,7 +203,8 @@ def default_grid_accuracy(numbers: dict) -> str:
                 continue
             total += 1
             bounded += abs(d["error"]) <= d["truncation"]
-            cells.append(f"{d['error']:+.2f} ({d['truncation']:.2f}), {d['cells']} cells")
+            run = "" if d["study_cells"] == d["cells"] else f" (study run: {d['study_cells']})"
+            cells.append(f"{d['error']:+.2f} ({d['truncation']:.2f}), {d['cells']} cells{run}")
         label = _forms_label(next(iter(by_geometry.values())))
         lines.append(f"| {'[' + label + ']' if key[0] else label} | {cells[0]} | {cells[1]} |")
     lines += ["", f"The truncation bounds the error at {bounded} of the {total} default points."]

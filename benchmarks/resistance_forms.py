@@ -126,15 +126,22 @@ def extrapolated(cells, D):
 
 
 def _default_point(g, tag, z, P, d):
-    """The rule's cells at this point and, where the study has them, the (M, D, code, contact)."""
+    """The default grid at this point: its counting size ``r`` [m] (:func:`jaxroll.grids.counting_size`
+    as the rules round it), regime, cells per ``r``, and the study's run to compare with: the
+    finest of the study's grids (cells per relaxed radius ``a_rel``) that is not finer than the
+    default's (``cells a_rel / r`` per relaxed radius; the default is at most 9 % finer where
+    ``r`` is ``a_rel`` rounded down onto the rules' ladder), as ``(cells, (M, D, code, contact))``
+    or ``None``."""
     from jaxroll import grids
 
-    m = MATERIALS[tag]
-    a = float(jr.engines.contact_size.estimate_contact_size(m, HALF, 0.02, P, g))
-    zeta, breadth = (float(x) for x in grids.regime(m, speed_of(g, z, P), a))
-    rule = grids.sphere_cells_per_radius if g == "sphere" else grids.cylinder_cells_per_radius
-    c = rule(zeta, breadth)
-    return a, zeta, breadth, c, d.get(c)
+    m, V = MATERIALS[tag], speed_of(g, z, P)
+    a_rel = float(jr.engines.contact_size.estimate_contact_size(m, HALF, 0.02, P, g))
+    cells, r = jr.AutoGrid().point_cells(m, HALF, 0.02, [P], [V], g)
+    c, r = int(cells[0]), float(r[0])
+    zeta, breadth = (float(x) for x in grids.regime(m, V, r))
+    coarser = [k for k in d if k <= c * a_rel / r * (1 + 1e-9)]
+    run = (max(coarser), d[max(coarser)]) if coarser else None
+    return r, zeta, breadth, c, run
 
 
 def analyse_rows(path, validation=False):
@@ -160,12 +167,15 @@ def analyse_rows(path, validation=False):
             ref, src = d[cs[-1]][1], f"D{cs[-1]}"
         else:
             ref, src = extrapolated(cs, [d[c][1] for c in cs]), "D extrapolated"
-        a, zeta, breadth, c, point = _default_point(g, tag, z, P, d)
+        r, zeta, breadth, c, run = _default_point(g, tag, z, P, d)
         default = None
-        if point is not None:
-            M, D, _, solved = point
-            ratio = solved / a if np.isfinite(solved) else 1.0  # the validation file has no contact radius
-            default = {"cells": int(c), "error": 100 * (float(grids.full_model_value(M, D, zeta)) / ref - 1),
+        if run is not None:
+            study_cells, (M, D, _, solved) = run
+            ratio = solved / r if np.isfinite(solved) else 1.0  # the validation file has no contact radius
+            default = {"cells": c, "study_cells": study_cells,
+                       "counting_ratio": r / float(jr.engines.contact_size.estimate_contact_size(
+                           MATERIALS[tag], HALF, 0.02, P, g)),
+                       "error": 100 * (float(grids.full_model_value(M, D, zeta)) / ref - 1),
                        "truncation": 100 * float(grids.full_model_error(M, D, zeta, c, g, ratio, breadth))}
         out.append({"geometry": g, "material": tag, "zeta": z, "load": P, "zeta_regime": zeta, "reference": src,
                     "validation": validation, "default": default,
@@ -190,7 +200,8 @@ def analyse(paths, record=False):
         cols = "  ".join(f"{c}: {m:+.2f}/{d:+.2f}{'*' if flagged else ''}" for c, (m, d, flagged) in r["grids"].items())
         dflt = r["default"]
         dflt = ("not in the study" if dflt is None else
-                f"{dflt['cells']} cells: {dflt['error']:+.2f} (truncation {dflt['truncation']:.2f})")
+                f"{dflt['cells']} cells (study run: {dflt['study_cells']}): {dflt['error']:+.2f} "
+                f"(truncation {dflt['truncation']:.2f})")
         print(f"{r['geometry']:8s} {r['material']:3s} P={r['load']:g} {label:12s} zeta_regime={r['zeta_regime']:.3g} "
               f"({r['reference']}) {cols}\n    default {dflt}")
     if record:
