@@ -19,6 +19,8 @@ import jaxroll as jr
 from jaxroll.identify.fit import IdentifiabilityWarning, RollingData, fit_material, read_rolling_csv
 from jaxroll.methods import default_method
 
+from _cases import compilations
+
 HALF = jr.Layer(H=jnp.inf)
 R = 0.02
 TRUE = {"G0": 3e6, "tau": 0.25, "f": 1.0}
@@ -145,3 +147,34 @@ def test_interval_coverage(geometry, n):
     hits, total, lowest = _coverage(geometry, n)
     print(f"{geometry}: {hits}/{total} intervals hold the truth")
     assert hits >= lowest, (hits, total)
+
+
+def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
+    """Issue 31.3: the fit's grid is re-resolved when the fitted contact leaves the envelope it
+    was sized for; a grid of the same class (same cells per half-width, the window on the
+    ladder) differs only in the cell size, a traced value of the compiled residual and
+    Jacobian, so the refit compiles nothing. Here the grids resolved at G0 = 2.7 and 3.3 MPa
+    over the reduced set (the second one's cells 10 % smaller: a0 ~ G0^-1/2)."""
+    from jaxroll.identify.fit import _data_arrays, _Params, _Problem, _residuals_and_jacobian_jit, _resolve_for_fit
+
+    data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
+    auto = default_method("cylinder", fit=True)
+    problems = []
+    for G0 in (2.7e6, 3.3e6):
+        mat = jr.StandardLinearSolid(G0=G0, tau=0.27, f=0.9)
+        method, _ = _resolve_for_fit(auto, mat, HALF, R, data, "cylinder")
+        params = _Params.of((mat, HALF, None), tuple(TRUE), None)
+        problems.append((method, params.logp0((mat, HALF, None)), (mat, HALF, None),
+                         _Problem.of(params, R, "cylinder", method, None)))
+    (m1, lp1, model1, p1), (m2, _, _, p2) = problems
+    assert m1.grid.window == m2.grid.window
+    assert float(m2.grid.spacing) / float(m1.grid.spacing) == pytest.approx((2.7 / 3.3) ** 0.5, rel=0.02)
+    arrays, lp = _data_arrays(data, None, m1), jnp.asarray(lp1)
+    r1 = np.asarray(_residuals_and_jacobian_jit(lp, model1, arrays, p1)[0])  # compiled by the fits above
+    out = []
+    assert compilations(caplog, lambda: out.append(_residuals_and_jacobian_jit(lp, model1, arrays, p2))) == 0
+    # the same material on the second grid: a new cell size was used (another discretisation
+    # error), and both agree within the grid rule's 0.5 % each (residuals in units of
+    # sigma = 2 % of R_r: 1 % is 0.5)
+    r2 = np.asarray(out[0][0])
+    assert 0 < np.max(np.abs(r2 - r1)) < 0.5

@@ -403,16 +403,22 @@ class FitResult:
 
 
 class _Problem(eqx.Module):
-    """The static part of a fit: the free parameters, how the rolling resistance is computed
-    and how the Jacobian is formed. Hashable (the method is an equinox module of static
-    configuration), so it keys the compiled residual and Jacobian: fits that differ only in
-    data values, initial values or fixed parameter values reuse one compiled program."""
+    """The configuration of a fit: the free parameters, how the rolling resistance is computed
+    and how the Jacobian is formed. Its static part keys the compiled residual and Jacobian;
+    the method enters with its grid lengths as arrays (``method.dynamic()``: the cell size is a
+    traced value, the window static), so fits that differ only in data values, initial values,
+    fixed parameter values or the cell size of the grid reuse one compiled program."""
 
     params: _Params
     radius: float | None = eqx.field(static=True)
     geometry: str = eqx.field(static=True)
-    method: object = eqx.field(static=True)  # an AbstractMethod, or None for DMA-only fits
+    method: object  # an AbstractMethod with traced grid lengths, or None for DMA-only fits
     jac_step: float | None = eqx.field(static=True)
+
+    @classmethod
+    def of(cls, params, radius, geometry, method, jac_step):
+        return cls(params, None if radius is None else float(radius), geometry,
+                   None if method is None else method.dynamic(), None if jac_step is None else float(jac_step))
 
 
 def _predict_rolling(material, layer, data, problem):
@@ -536,11 +542,42 @@ FULL_MODEL_RTOL = 1e-6
 REGRID_FACTOR = 1.25
 
 
+#: Rungs of the fit's window ladder per octave: the window's half-width in cells is rounded up to
+#: ``ceil(2^(j/8))`` (at most 9 % wider), so that grids resolved at other parameters share the
+#: window (a static shape) and differ only in the cell size (a traced value): one compiled program.
+WINDOW_RUNGS_PER_OCTAVE = 8
+
+
+def _window_rung(half: int) -> int:
+    """The smallest rung ``ceil(2^(j/8)) >= half`` of the window ladder."""
+    j = math.ceil(WINDOW_RUNGS_PER_OCTAVE * math.log2(max(half, 1)) - 1e-9)
+    while math.ceil(2.0 ** ((j - 1) / WINDOW_RUNGS_PER_OCTAVE)) >= half and j > 0:
+        j -= 1
+    return math.ceil(2.0 ** (j / WINDOW_RUNGS_PER_OCTAVE))
+
+
+def _on_ladder(method):
+    """``method`` with the window of its (infinite-layer) grid widened to the next rung of the
+    window ladder (same cell size and parity; a wider window changes no solution while the
+    contact stays inside); periodic grids, whose window is bounded by the period, as given."""
+    from ..grids import FixedGrid
+
+    grid = method.grid
+    if not isinstance(grid, FixedGrid) or grid.period is not None:
+        return method
+    window = 2 * _window_rung(grid.window // 2) + grid.window % 2
+    return eqx.tree_at(lambda m: m.grid, method, FixedGrid(grid.spacing, window, n_terms=grid.n_terms))
+
+
 def _resolve_for_fit(method, material, layer, radius, rolling, geometry):
-    """``method`` with its :class:`~jaxroll.grids.AutoGrid` resolved over the data envelope
-    (every measured speed and load) for ``material`` and ``layer`` (concrete values)."""
-    return method.resolve(material, layer, radius=radius, loads=np.asarray(rolling.load),
-                          speeds=np.asarray(rolling.speed), geometry=geometry)
+    """``(grid method, resolved grid)``: ``method`` with its :class:`~jaxroll.grids.AutoGrid`
+    resolved over the data envelope (every measured speed and load) for ``material`` and
+    ``layer`` (concrete values), its window on the ladder (:func:`_on_ladder`); and the grid as
+    resolved (before the ladder), which :func:`_grid_moved` compares."""
+    # the distinct loads and speeds: the rule visits every load x speed pair of its envelope
+    resolved = method.resolve(material, layer, radius=radius, loads=np.unique(rolling.load),
+                              speeds=np.unique(rolling.speed), geometry=geometry)
+    return _on_ladder(resolved), resolved.grid
 
 
 def _grid_moved(old, new) -> bool:
@@ -754,12 +791,11 @@ def fit_material(
         raise ValueError(f"{n_res} residuals cannot determine {params.size} parameters")
     auto = method if method is not None and method.needs_resolution(geometry) else None
     if auto is not None:
-        method = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry)
+        method, resolved = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry)
 
     def run(method, model, n_starts):
         params = _Params.of(model, free, bounds)
-        problem = _Problem(params, None if rolling is None else float(radius), geometry, method,
-                           None if jac_step is None else float(jac_step))
+        problem = _Problem.of(params, None if rolling is None else radius, geometry, method, jac_step)
         out = _multistart(problem, model, _data_arrays(rolling, dma, method), solver=solver, n_starts=n_starts,
                           spread_decades=spread_decades, seed=seed, max_steps=max_steps, rtol=rtol,
                           progress=progress)
@@ -768,8 +804,8 @@ def fit_material(
     params, (u, converged, cost, r, J, starts) = run(method, model, n_starts)
     if auto is not None:  # the fitted contact left the envelope the grid was resolved for: once more
         material, lay, sh = params.build(jnp.asarray(params.logp_and_slope(u)[0]), model)
-        again = _resolve_for_fit(auto, material, lay, radius, rolling, geometry)
-        if _grid_moved(method.grid, again.grid):
+        again, again_resolved = _resolve_for_fit(auto, material, lay, radius, rolling, geometry)
+        if _grid_moved(resolved, again_resolved):
             method, model = again, (material, lay, sh)
             params, (u, converged, cost, r, J, more) = run(method, model, 1)
             starts = starts + more
