@@ -122,8 +122,7 @@ def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
     assert all(f.converged for f in fits)
     for f in fits:  # each ends on the grid the rule gives at its own result (resolved by the fit itself)
         assert isinstance(f.method.grid, jr.FixedGrid)
-        own = _resolve_for_fit(default_method("cylinder", fit=True), f.material, HALF, R, data, "cylinder",
-                               default=True)[0].grid
+        _, own = _resolve_for_fit(default_method("cylinder", fit=True), f.material, HALF, R, data, "cylinder")
         assert not _grid_moved(own, f.method.grid) and len(f.starts) <= 1 + MAX_REGRIDS
     hits = sum(_covered(f) for f in fits)
     assert hits >= 7, [(f.params, f.ci95) for f in fits]
@@ -169,7 +168,7 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     problems = []
     for G0 in (2.7e6, 3.3e6):
         mat = jr.StandardLinearSolid(G0=G0, tau=0.27, f=0.9)
-        method, _ = _resolve_for_fit(auto, mat, HALF, R, data, "cylinder", default=True)
+        method, _ = _resolve_for_fit(auto, mat, HALF, R, data, "cylinder", dense_lines=True)
         params = _Params.of((mat, HALF, None), tuple(TRUE), None)
         problems.append((method, params.logp0((mat, HALF, None)), (mat, HALF, None),
                          _Problem.of(params, R, "cylinder", method, None)))

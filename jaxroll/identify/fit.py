@@ -563,19 +563,17 @@ def _window_rung(half: int) -> int:
     return math.ceil(2.0 ** (j / WINDOW_RUNGS_PER_OCTAVE))
 
 
-def _on_ladder(method, refine=1):
-    """``method`` with its (infinite-layer) grid ``refine`` times finer (the same window width in
-    metres) and its window widened to the next rung of the window ladder (same parity; a wider
-    window changes no solution while the contact stays inside); periodic grids, whose window is
-    bounded by the period, as given."""
+def _on_ladder(method):
+    """``method`` with the window of its (infinite-layer) grid widened to the next rung of the
+    window ladder (same cell size and parity; a wider window changes no solution while the
+    contact stays inside); periodic grids, whose window is bounded by the period, as given."""
     from ..grids import FixedGrid
 
     grid = method.grid
     if not isinstance(grid, FixedGrid) or grid.period is not None:
         return method
-    window = 2 * _window_rung(refine * (grid.window // 2)) + grid.window % 2
-    return eqx.tree_at(lambda m: m.grid, method, FixedGrid(float(grid.spacing) / refine, window,
-                                                           n_terms=grid.n_terms))
+    window = 2 * _window_rung(grid.window // 2) + grid.window % 2
+    return eqx.tree_at(lambda m: m.grid, method, FixedGrid(grid.spacing, window, n_terms=grid.n_terms))
 
 
 #: Largest window [cells] of a line (cylinder) grid on which the default fit solves its contact
@@ -583,32 +581,22 @@ def _on_ladder(method, refine=1):
 #: 60-point cylinder benchmark, window 108: residuals and Jacobian equal to 5e-14), 3-4x less
 #: time per evaluation there (0.12-0.17 s against 0.48 s of CPU) and a third less compilation. LU
 #: grows like the window cubed: above this size GMRES is kept.
-DENSE_MAX_WINDOW = 512
+DENSE_MAX_WINDOW = 256
 
 
-#: Refinement of the default fit's cylinder grid over the rule's (which sizes single points to
-#: 0.5 %): the data constrain the G0-tau-f valley to about the noise over the square root of the
-#: point count (0.26 % for 60 points at 2 %), below the rule grid's error, whose change with the
-#: cell size slid noise draws of the 60-point benchmark along the valley and out of their
-#: intervals; twice the cells cut that error about fourfold (second order). Spheres keep the
-#: rule's grid (a finer 3D grid costs ~5x per evaluation).
-FIT_REFINEMENT = {"cylinder": 2, "sphere": 1}
-
-
-def _resolve_for_fit(method, material, layer, radius, rolling, geometry, default=False):
+def _resolve_for_fit(method, material, layer, radius, rolling, geometry, dense_lines=False):
     """``(grid method, resolved grid)``: ``method`` with its :class:`~jaxroll.grids.AutoGrid`
     resolved over the data envelope (every measured speed and load) for ``material`` and
     ``layer`` (concrete values), its window on the ladder (:func:`_on_ladder`); and the grid as
-    resolved (before the ladder), which :func:`_grid_moved` compares. ``default``: the default
-    fitting method, refined by :data:`FIT_REFINEMENT`, and on a line window of at most
-    :data:`DENSE_MAX_WINDOW` cells with the dense linear solver."""
+    resolved (before the ladder), which :func:`_grid_moved` compares. ``dense_lines``: a line
+    window of at most :data:`DENSE_MAX_WINDOW` cells gets the dense linear solver."""
     from ..contact import Dense
 
     # the distinct loads and speeds: the rule visits every load x speed pair of its envelope
     resolved = method.resolve(material, layer, radius=radius, loads=np.unique(rolling.load),
                               speeds=np.unique(rolling.speed), geometry=geometry)
-    out = _on_ladder(resolved, FIT_REFINEMENT[geometry] if default else 1)
-    if default and geometry == "cylinder" and out.grid.window <= DENSE_MAX_WINDOW:
+    out = _on_ladder(resolved)
+    if dense_lines and geometry == "cylinder" and out.grid.window <= DENSE_MAX_WINDOW:
         out = eqx.tree_at(lambda m: m.linear_solver, out, Dense())
     return out, resolved.grid
 
@@ -818,7 +806,7 @@ def fit_material(
     free = _DEFAULT_FREE[type(initial)] if free is None and type(initial) in _DEFAULT_FREE else free
     if rtol is None:  # the default full model's tolerance; any named method keeps 1e-10
         rtol = FULL_MODEL_RTOL if method is None and rolling is not None else 1e-10
-    default = method is None  # the default method: a refined line grid, solved by LU (FIT_REFINEMENT)
+    dense_lines = method is None  # the default method: LU on small line windows (same numbers)
     method = _check_problem(rolling, dma, initial, free or (), layer, radius, geometry, method, shift)
     check_plausible("fit_material", radius=radius, H=None if layer is None else layer.H,
                     speed=None if rolling is None else rolling.speed)
@@ -829,7 +817,7 @@ def fit_material(
         raise ValueError(f"{n_res} residuals cannot determine {params.size} parameters")
     auto = method if method is not None and method.needs_resolution(geometry) else None
     if auto is not None:
-        method, resolved = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry, default)
+        method, resolved = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry, dense_lines)
 
     def run(method, model, n_starts):
         params = _Params.of(model, free, bounds)
@@ -842,7 +830,7 @@ def fit_material(
     params, (u, converged, cost, r, J, starts) = run(method, model, n_starts)
     for _ in range(MAX_REGRIDS if auto is not None else 0):  # the fit left the grid's envelope: again
         material, lay, sh = params.build(jnp.asarray(params.logp_and_slope(u)[0]), model)
-        again, again_resolved = _resolve_for_fit(auto, material, lay, radius, rolling, geometry, default)
+        again, again_resolved = _resolve_for_fit(auto, material, lay, radius, rolling, geometry, dense_lines)
         if not _grid_moved(resolved, again_resolved):
             break
         method, model, resolved = again, (material, lay, sh), again_resolved
