@@ -85,9 +85,12 @@ def main():
                 per[n] += c[n]
             hits, total = hits + sum(c.values()), total + len(c)
             show(f"draw {i}", r, time.perf_counter() - t, time.process_time())
-        lo, hi = binom.ppf(0.005, total, 0.95), binom.ppf(0.995, total, 0.95)
-        print(f"coverage: {hits}/{total} = {hits / total:.3f} (per parameter {per}); honest 95 % intervals give "
-              f"{lo:.0f}..{hi:.0f} with 99 % probability; {time.perf_counter() - t:.0f} s, load average "
+        # the three parameters miss together (they lie along one valley): the draws are the
+        # independent trials, so each parameter's count is compared with Binomial(draws, 0.95)
+        lo, hi = binom.ppf(0.005, args.draws, 0.95), binom.ppf(0.995, args.draws, 0.95)
+        print(f"coverage: {hits}/{total} = {hits / total:.3f} (per parameter {per} of {args.draws}); honest 95 % "
+              f"intervals give {lo:.0f}..{hi:.0f} per parameter with 99 % probability; "
+              f"{time.perf_counter() - t:.0f} s, load average "
               f"{os.getloadavg()[0]:.1f}")
     if args.record and not args.draws_only:
         from _numbers import record

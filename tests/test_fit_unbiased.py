@@ -112,10 +112,11 @@ def _draws(data, seeds):
 
 def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
     """Reduced copy of the coverage check: 20 points (every third speed) of fit_cylinder.csv,
-    the shipped draw and two fresh ones, started near the truth (one grid, no re-resolution: the
-    three fits share one compiled model; the far start is the slow test's); 9 intervals at 95 %:
-    P(hits <= 6) ~ 8e-3 for honest ones. 447 s at load average ~19 on 2 cores (15 points, every
-    fourth speed, gave 6 of 9: too few speeds across the peak for linearised intervals)."""
+    the shipped draw and two fresh ones, started near the truth (the three fits, and their
+    re-resolved grids of the same class, share one compiled model; the far start is the slow
+    test's); each ends on the grid the rule gives at its own result; 9 intervals at 95 %:
+    P(hits <= 6) ~ 8e-3 for honest ones (15 points, every fourth speed, gave 6 of 9: too few
+    speeds across the peak for linearised intervals)."""
     data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
     near = jr.StandardLinearSolid(G0=2.7e6, tau=0.27, f=0.9)
     fits = [_fit(d, "cylinder", near) for d in [data, *_draws(data, range(2))]]
@@ -130,11 +131,13 @@ def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
 
 
 def _coverage(geometry, n):
+    """Per parameter, how many of ``n`` noise draws' 95 % intervals hold the truth, and the lower
+    0.5 % quantile of Binomial(n, 0.95) (the draws are the independent trials: the three
+    parameters lie along one valley and miss together); honest intervals fail it 1 time in 200."""
     data = read_rolling_csv(jr.datasets.path(f"fit_{geometry}.csv"))
     fits = [_fit(d, geometry) for d in _draws(data, range(n))]
-    hits, total = sum(_covered(f) for f in fits), 3 * n
-    # the lower 0.5 % quantile of Binomial(total, 0.95): honest intervals fail this 1 time in 200
-    return hits, total, binom.ppf(0.005, total, 0.95)
+    hits = {p: sum(bool(f.ci95[p][0] <= TRUE[p] <= f.ci95[p][1]) for f in fits) for p in TRUE}
+    return hits, binom.ppf(0.005, n, 0.95)
 
 
 @pytest.mark.slow
@@ -151,9 +154,11 @@ def test_sixty_point_fit_recovers_the_truth(geometry):
 @pytest.mark.slow
 @pytest.mark.parametrize("geometry,n", [("cylinder", 30), ("sphere", 20)])
 def test_interval_coverage(geometry, n):
-    hits, total, lowest = _coverage(geometry, n)
-    print(f"{geometry}: {hits}/{total} intervals hold the truth")
-    assert hits >= lowest, (hits, total)
+    """Measured (benchmarks/README.md, "The default fit's cost"): the cylinder's intervals hold the
+    truth in about 4 of 5 draws, below this bound (the model's grid error along the valley)."""
+    hits, lowest = _coverage(geometry, n)
+    print(f"{geometry}: {hits} of {n} draws' intervals hold the truth")
+    assert min(hits.values()) >= lowest, (hits, n)
 
 
 def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
