@@ -143,6 +143,71 @@ def slowest_tests(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+#: resistance_forms.py's material tags, as the docs name them
+_FORMS_MATERIALS = {"s05": "SLS f = 0.5", "s1": "SLS f = 1", "s2": "SLS f = 2", "s3": "SLS f = 3",
+                    "pr": "Prony, 20 decades", "st": "Prony, 12 decades"}
+
+
+def _forms_source(sec: dict) -> str:
+    return f"`{sec['command']}` ({_machine(sec['measured'])})"
+
+
+def forms_convergence(numbers: dict) -> str:
+    """Errors of M / D by regime and cells per radius: standard linear solid f = 1, cylinder
+    against the exact solution, sphere against D extrapolated to zero cell size."""
+    sec = numbers["resistance_forms"]
+    rows = {(r["geometry"], r["zeta"]): r["grids"] for r in sec["rows"]
+            if r["material"] == "s1" and not r["validation"] and r["load"] in (100.0, 1e4)}
+    cols = [("cylinder", 12), ("cylinder", 25), ("cylinder", 100), ("sphere", 12), ("sphere", 16), ("sphere", 24),
+            ("sphere", 48)]
+    lines = [f"Written from {_forms_source(sec)}.", "",
+             "| zeta | cylinder 12 | 25 | 100 | sphere 12 | 16 | 24 | 48 |", "|---|---|---|---|---|---|---|---|"]
+    for z in (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0, 1000.0):
+        cells = []
+        for g, c in cols:
+            m, d, _flag = rows[(g, z)][str(c)]
+            cells.append(f"{m:+.2f} / {d:+.2f}")
+        lines.append(f"| {z:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _forms_label(r: dict) -> str:
+    z = r["zeta"]
+    where = f"zeta = {z:g}" if z > 0 else f"V = {-z:g} m/s"
+    load = "" if r["load"] in (100.0, 1e4) else f", {r['load']:g} N"
+    return f"{_FORMS_MATERIALS[r['material']]}, {where}{load}"
+
+
+def default_grid_accuracy(numbers: dict) -> str:
+    """The default grid at every point of the study: cells, error of the reported value and its
+    truncation, with a count of the points whose error the truncation bounds."""
+    sec = numbers["resistance_forms"]
+    points = {}
+    for r in sec["rows"]:
+        other_load = 0.0 if r["load"] in (100.0, 1e4) else r["load"]  # the study's loads: 100 N, 10 kN/m
+        points.setdefault((r["validation"], r["material"], other_load, r["zeta"]), {})[r["geometry"]] = r
+    lines = [f"Written from {_forms_source(sec)}: the default grid's cells per estimated contact radius, the "
+             "error [%] of the reported value and, in brackets, its `truncation` [%]; rows in brackets are the "
+             "validation set (points off the tables' calibration); - : the study has no run at the rule's cells.",
+             "", "| point | cylinder | sphere |", "|---|---|---|"]
+    bounded = total = 0
+    for key in sorted(points, key=lambda k: (k[0], list(_FORMS_MATERIALS).index(k[1]), k[2], k[3] < 0, abs(k[3]))):
+        by_geometry = points[key]
+        cells = []
+        for g in ("cylinder", "sphere"):
+            d = by_geometry.get(g, {}).get("default")
+            if d is None:
+                cells.append("-")
+                continue
+            total += 1
+            bounded += abs(d["error"]) <= d["truncation"]
+            cells.append(f"{d['error']:+.2f} ({d['truncation']:.2f}), {d['cells']} cells")
+        label = _forms_label(next(iter(by_geometry.values())))
+        lines.append(f"| {'[' + label + ']' if key[0] else label} | {cells[0]} | {cells[1]} |")
+    lines += ["", f"The truncation bounds the error at {bounded} of the {total} default points."]
+    return "\n".join(lines)
+
+
 #: generated block name -> renderer of numbers.json
 BLOCKS = {
     "methods-table": methods_table,
@@ -150,10 +215,12 @@ BLOCKS = {
     "first-use": first_use,
     "batched-table": batched_table,
     "slowest-tests": slowest_tests,
+    "forms-convergence": forms_convergence,
+    "default-grid-accuracy": default_grid_accuracy,
 }
 
 #: files holding generated blocks
-FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md"]
+FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md"]
 
 _BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(\n<!-- /generated: \2 -->)", re.S)
 

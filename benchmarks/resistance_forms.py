@@ -11,7 +11,7 @@ The full models report the dissipation form ``-int p du/dx`` as ``value`` (also
   (``s1``) and 3 (``s3``) at zeta = V tau/a0, and a 21-term Prony series (``pr``, G_inf = 3 MPa,
   G_i = 1.5 MPa 10^(-k/10), tau_i = 10^k s, k = -10..10: 20 decades) at 1e-6..1e3 m/s. The
   tables of :mod:`jaxroll.grids` (``SPHERE_ERROR``, ``LINE_ERROR``) are this study's envelope.
-* ``--analyse FILE``: the study's errors [%] M / D, against the exact solution (cylinder, SLS)
+* ``--analyse FILE [FILE...] [--record]``: the study's errors [%] M / D, against the exact solution (cylinder, SLS)
   or against the dissipation form extrapolated to zero cell size from >= 20 cells (a fit
   ``D + C c^-p``; sphere, and the cylinder's Prony series against its finest grid).
 * ``--defaults``: the default grid (``jr.Full()``) at each regime: cells per radius, value error
@@ -25,6 +25,7 @@ Sphere R = 2 cm, P = 100 N; cylinder R = 2 cm, P = 10 kN/m; half-spaces (infinit
 
 import argparse
 import csv
+import os
 import sys
 import time
 import warnings
@@ -34,6 +35,8 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxroll as jr
+
+import _numbers
 
 HALF = jr.Layer(H=jnp.inf)
 S1 = jr.StandardLinearSolid(G0=3e6, tau=0.25, f=1.0)
@@ -134,10 +137,11 @@ def _default_point(g, tag, z, P, d):
     return a, zeta, breadth, c, d.get(c)
 
 
-def analyse(path):
-    """Errors [%] of M / D at every grid of the study, and at the default grid (the rule's cells)
-    the error of the reported value (D, blended toward (M + D)/2 below zeta = 5e-3) with its
-    ``truncation``."""
+def analyse_rows(path, validation=False):
+    """The rows of a study file: for every point (geometry, material, zeta or -speed, load) its
+    reference, the errors [%] of M and D at every grid of the study (and whether the method
+    flagged them), and at the default grid (the rule's cells) the error [%] of the reported value
+    (D, blended toward (M + D)/2 below zeta = 5e-3) with its ``truncation`` [%]."""
     from jaxroll import grids
 
     table = {}
@@ -145,12 +149,10 @@ def analyse(path):
         g, tag, z, _, c, M, D, res, a = row[:9]
         P = float(row[10]) if len(row) > 10 else LOAD[g]
         table.setdefault((g, tag, float(z), P), {})[int(c)] = (float(M), float(D), int(res), float(a))
-    print("error [%] of the moment / dissipation form; * = flagged by the method's own estimate;")
-    print("default: the rule's cells per estimated radius, the error of D [%] and its truncation [%]")
+    out = []
     for (g, tag, z, P), d in sorted(table.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][3], abs(kv[0][2]))):
         cs = sorted(d)
         if g == "cylinder" and tag not in ("pr", "st"):
-            a0 = relaxed_size(g, P)
             ref = float(jr.reference.exact_cylinder_halfspace(MATERIALS[tag], radius=0.02, load=P,
                                                               speed=speed_of(g, z, P)).rolling_resistance)
             src = "exact"
@@ -158,18 +160,44 @@ def analyse(path):
             ref, src = d[cs[-1]][1], f"D{cs[-1]}"
         else:
             ref, src = extrapolated(cs, [d[c][1] for c in cs]), "D extrapolated"
-        label = f"{z:g}" if z > 0 else f"V={-z:g} m/s"
-        cols = "  ".join(f"{c}: {100 * (d[c][0] / ref - 1):+.2f}/{100 * (d[c][1] / ref - 1):+.2f}"
-                         f"{'*' if d[c][2] else ''}" for c in cs)
         a, zeta, breadth, c, point = _default_point(g, tag, z, P, d)
-        dflt = "not in the study"
+        default = None
         if point is not None:
             M, D, _, solved = point
             ratio = solved / a if np.isfinite(solved) else 1.0  # the validation file has no contact radius
-            t = float(grids.full_model_error(M, D, zeta, c, g, ratio, breadth))
-            value = float(grids.full_model_value(M, D, zeta))
-            dflt = f"{c} cells: {100 * (value / ref - 1):+.2f} (truncation {100 * t:.2f})"
-        print(f"{g:8s} {tag:3s} P={P:g} {label:12s} zeta_regime={zeta:.3g} ({src}) {cols}\n    default {dflt}")
+            default = {"cells": int(c), "error": 100 * (float(grids.full_model_value(M, D, zeta)) / ref - 1),
+                       "truncation": 100 * float(grids.full_model_error(M, D, zeta, c, g, ratio, breadth))}
+        out.append({"geometry": g, "material": tag, "zeta": z, "load": P, "zeta_regime": zeta, "reference": src,
+                    "validation": validation, "default": default,
+                    "grids": {str(k): [100 * (d[k][0] / ref - 1), 100 * (d[k][1] / ref - 1), bool(d[k][2])]
+                              for k in cs}})
+    return out
+
+
+def analyse(paths, record=False):
+    """Print :func:`analyse_rows` of the study files ``paths`` (a file whose name contains
+    "validation" is the validation set); ``record``: store them in benchmarks/numbers.json
+    (section ``resistance_forms``), from which ``render_docs.py`` writes the tables of
+    docs/validation.md."""
+    print("error [%] of the moment / dissipation form; * = flagged by the method's own estimate;")
+    print("default: the rule's cells per estimated radius, the error of D [%] and its truncation [%]")
+    rows = []
+    for path in paths:
+        rows += analyse_rows(path, validation="validation" in path)
+    for r in rows:
+        z = r["zeta"]
+        label = f"{z:g}" if z > 0 else f"V={-z:g} m/s"
+        cols = "  ".join(f"{c}: {m:+.2f}/{d:+.2f}{'*' if flagged else ''}" for c, (m, d, flagged) in r["grids"].items())
+        dflt = r["default"]
+        dflt = ("not in the study" if dflt is None else
+                f"{dflt['cells']} cells: {dflt['error']:+.2f} (truncation {dflt['truncation']:.2f})")
+        print(f"{r['geometry']:8s} {r['material']:3s} P={r['load']:g} {label:12s} zeta_regime={r['zeta_regime']:.3g} "
+              f"({r['reference']}) {cols}\n    default {dflt}")
+    if record:
+        _numbers.record("resistance_forms", {
+            "command": "python benchmarks/resistance_forms.py --analyse " + " ".join(
+                f"benchmarks/{os.path.basename(p)}" for p in paths) + " --record",
+            "rows": rows})
 
 
 def defaults():
@@ -217,7 +245,8 @@ def main():
     ap.add_argument("--out", default="resistance_forms.csv")
     ap.add_argument("--rows", default=None, help="comma-separated indices of the study's rows (parallel runs)")
     ap.add_argument("--validation", action="store_true", help="--study: the validation set instead")
-    ap.add_argument("--analyse", default=None)
+    ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE", help="study files to analyse")
+    ap.add_argument("--record", action="store_true", help="--analyse: store the rows in benchmarks/numbers.json")
     ap.add_argument("--defaults", action="store_true")
     ap.add_argument("--timing", action="store_true")
     ap.add_argument("--zetas", default=None, help="comma-separated regimes of --timing (default: all)")
@@ -225,7 +254,7 @@ def main():
     if args.study:
         study(args.out, None if args.rows is None else {int(i) for i in args.rows.split(",")}, args.validation)
     if args.analyse:
-        analyse(args.analyse)
+        analyse(args.analyse, args.record)
     if args.defaults:
         defaults()
     if args.timing:

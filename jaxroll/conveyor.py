@@ -313,7 +313,10 @@ def conveyor_map(material, shift, layer, *, diameter, line_loads, temperatures, 
     Args:
         material: the compound at ``shift.T_ref`` (e.g. ``jr.load_material(path)``); shift: its
             WLF/Arrhenius law.
-        layer: the cover (:class:`jaxroll.Layer`; its ``H`` [m] is the thickness differentiated).
+        layer: the cover (:class:`jaxroll.Layer`; its ``H`` [m] is the thickness differentiated),
+            or a :class:`jaxroll.Stack` with the cover as its top ply and carcass plies below
+            (:func:`belt_stack`; each point shifts the cover, and every ply or base of a
+            temperature-shifted material, to its temperature: :func:`jaxroll.maps.models_at`).
         diameter [m]; line_loads [N/m], temperatures [K], speeds [m/s]: 1D axes.
         contact_length: ``l_c`` [m] for ``per_idler``.
         method: default the full 2D model (an :class:`~jaxroll.grids.AutoGrid` gets one grid for
@@ -322,13 +325,6 @@ def conveyor_map(material, shift, layer, *, diameter, line_loads, temperatures, 
         measured_temperatures, measured_frequencies: as in :func:`jaxroll.resistance_map`: points
             outside are computed but ``RESULTS.outside_measured_range``.
     """
-    from .engines.stack import Stack
-
-    if isinstance(material, Stack) or isinstance(layer, Stack):
-        raise NotImplementedError("conveyor_map over temperature takes a cover material and a jr.Layer; a jr.Stack "
-                                  "(carcass plies) needs every ply's material shifted to the temperature, which the "
-                                  "map engine (jaxroll.maps.map_points) does not do yet: evaluate stacks point by "
-                                  "point with indentation_resistance(jr.conveyor.belt_stack(...), ...)")
     T, V, q = (np.asarray(x, float).ravel() for x in (temperatures, speeds, line_loads))
     directions = material_directions(material) if directions is None else dict(directions)
     Tp, Vp, qp = (a.ravel() for a in np.meshgrid(T, V, q, indexing="ij"))

@@ -733,10 +733,16 @@ def _rule_cells(zeta, breadth, geometry, ladder, cap):
 def _rule_cells_array(zeta, breadth, geometry, ladder, cap) -> np.ndarray:
     """:func:`_rule_cells` at every ``(zeta[i], breadth[i])`` at once."""
     ladder = np.asarray(ladder)
-    err = np.asarray(dissipation_error(np.asarray(zeta, float)[:, None], ladder[None, :].astype(float), geometry,
-                                       np.asarray(breadth, float)[:, None]))
+    err = np.asarray(_dissipation_error_jit(np.asarray(zeta, float)[:, None], ladder[None, :].astype(float), geometry,
+                                            np.asarray(breadth, float)[:, None]))
     fit = (err <= TARGET_ERROR) & (ladder <= cap)[None, :]
     return np.where(fit.any(axis=1), ladder[np.argmax(fit, axis=1)], cap)
+
+
+#: :func:`dissipation_error` as one compiled program for the host-side grid rule: eager, each of
+#: its operations would compile a small program of its own in every new process (~50 of them,
+#: the bulk of a first call's grid sizing when the model itself comes from the persistent cache)
+_dissipation_error_jit = jax.jit(dissipation_error, static_argnames="geometry")
 
 
 def sphere_cells_per_radius(zeta: float, breadth: float = 0.0) -> int:

@@ -91,7 +91,11 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
 
     Args:
         material: e.g. the :class:`PronyFit`'s ``material``; shift: its WLF/Arrhenius law.
-        layer: :class:`jaxroll.Layer` (its ``H`` [m] is the thickness differentiated).
+        layer: :class:`jaxroll.Layer` (its ``H`` [m] is the thickness differentiated), or a
+            :class:`jaxroll.Stack` whose top ply holds ``material`` (or the stack alone,
+            ``layer=None``): each point shifts the top ply by ``shift`` and every ply or
+            half-space base of a temperature-shifted material by its own law
+            (:func:`models_at`); ``dR_dH`` is then the top ply's thickness.
         radius [m], load [N, or N/m for a cylinder]; temperatures [K], speeds [m/s]: 1D axes.
         geometry: ``"sphere"`` or ``"cylinder"``.
         method: a method object or shortcut; default :func:`jaxroll.methods.default_method`
@@ -156,7 +160,9 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     at the points ``(temperatures[i], speeds[i], loads[i])`` (1D arrays of one length, K, m/s,
     N or N/m) of a temperature-shifted material on ``layer``, with ``dR_r/dT``, ``dR_r/dH``
     (the thickness of the layer, or of the top ply of a layer-like object) and the derivative
-    along each of ``directions`` (pytrees shaped like ``material``: tangents of its parameters),
+    along each of ``directions`` (pytrees shaped like ``material``: tangents of its parameters;
+    with a :class:`jaxroll.Stack`, of the top ply's compound, every shifted ply at the point's
+    temperature: :func:`models_at`),
     one compiled program per grid class; the points are solved in the order of the reduced speed
     ``V a_T`` and then the load. ``measured_temperatures``/``measured_frequencies``: as in
     :func:`resistance_map` (points outside are ``RESULTS.outside_measured_range``)."""
@@ -165,6 +171,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     from ._numerics import check_roller_values
     from .result import RESULTS
 
+    material, layer = _split_stack(material, layer)
     T, V, P = (np.asarray(x, float).ravel() for x in (temperatures, speeds, loads))
     if not T.shape == V.shape == P.shape:
         raise ValueError(f"temperatures, speeds and loads must have one length; got {T.size}, {V.size}, {P.size}")
@@ -172,6 +179,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     check_plausible(where, radius=radius, H=cover_thickness(layer), G0=material.relaxed_modulus(), speed=V)
     check_roller_values(radius, P, V)
     material.checked(), layer.checked()
+    _check_cover(material, shift, layer)
     if not np.all(T > 0):
         raise ValueError("temperatures must be positive [K]")
     # under time-temperature superposition the contact depends on T and V through the reduced
@@ -203,7 +211,6 @@ def _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry) 
     one grid, the union of the grids resolved at the lowest and the highest temperature over
     every load; ``reduced``: :func:`_reduced`."""
     from .grids import union
-    from .materials.material import at_temperature
     from .methods import as_method, default_method
 
     method = as_method(default_method(geometry) if method is None else method)
@@ -215,7 +222,7 @@ def _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry) 
                for g, idx in method.grid.buckets(material, layer, radius, P, Vr, geometry)]
     elif method.needs_resolution(geometry):
         out = [(eqx.tree_at(lambda m: m.grid, method, union([
-            method.resolve(at_temperature(material, shift, Ti), layer, radius=radius, loads=np.unique(P),
+            method.resolve(*models_at(material, shift, layer, Ti), radius=radius, loads=np.unique(P),
                            speeds=jnp.asarray(np.unique(V)), geometry=geometry).grid
             for Ti in (float(np.min(T)), float(np.max(T)))])), everything, reduced)]
     else:
@@ -259,7 +266,8 @@ def _outside_measured(shift, T, V, a, measured_temperatures, measured_frequencie
 
 
 def cover_thickness(layer):
-    """The thickness [m] differentiated by the maps: ``H`` of a :class:`jaxroll.Layer`."""
+    """The thickness [m] differentiated by the maps: ``H`` of a :class:`jaxroll.Layer`, or of
+    the top ply (the cover) of a :class:`jaxroll.Stack`."""
     return _cover_path(layer)(layer)
 
 
@@ -270,12 +278,93 @@ def with_cover_thickness(layer, H):
 
 def _cover_path(layer):
     from .engines.layer import Layer
+    from .engines.stack import Stack
 
     if isinstance(layer, Layer):
         return lambda l: l.H
-    raise NotImplementedError(f"the maps take a material and a jr.Layer, not a {type(layer).__name__}: a jr.Stack "
-                              f"needs every ply's material shifted to the temperature, which the map engine does not "
-                              f"do yet")
+    if isinstance(layer, Stack):
+        return lambda l: l.plies[0].H
+    raise ValueError(f"the maps take a material and a jr.Layer or jr.Stack; got a {type(layer).__name__}")
+
+
+def models_at(material, shift, layer, T):
+    """``(material, layer)`` at temperature ``T`` [K] as the methods take them (scalar ``T``;
+    jittable). A :class:`jaxroll.Layer`: ``(at_temperature(material, shift, T), layer)``. A
+    :class:`jaxroll.Stack`: the stack with its top ply's material ``at_temperature(material,
+    shift, T)`` (the map's compound: the top ply holds ``material`` or that material at any
+    temperature), every other ply and a half-space base whose material is temperature-shifted
+    (:func:`jaxroll.at_temperature`, with its own shift law) shifted to ``T`` too, and plies of
+    unshifted materials (e.g. a steel-cord carcass) left as they are; returned as
+    ``(stack.material, stack)``."""
+    from .engines.stack import Stack
+    from .materials.material import AtTemperature, at_temperature
+
+    top = at_temperature(material, shift, T)
+    if not isinstance(layer, Stack):
+        return top, layer
+
+    def shifted(m):
+        return eqx.tree_at(lambda x: x.T, m, jnp.asarray(T, float)) if isinstance(m, AtTemperature) else m
+
+    plies = [eqx.tree_at(lambda p: p.material, layer.plies[0], top)]
+    plies += [eqx.tree_at(lambda p: p.material, p, shifted(p.material)) for p in layer.plies[1:]]
+    stack = eqx.tree_at(lambda s: s.plies, layer, tuple(plies))
+    if stack.base is not None:
+        stack = eqx.tree_at(lambda s: s.base.material, stack, shifted(stack.base.material))
+    return stack.material, stack
+
+
+def _split_stack(material, layer):
+    """``(material, layer)`` of the maps: a :class:`jaxroll.Stack` given alone (``layer=None``)
+    becomes ``(its top ply's compound at shift.T_ref, the stack)``."""
+    from .engines.stack import Stack
+    from .materials.material import AtTemperature
+
+    if isinstance(material, Stack) and layer is None:
+        top = material.plies[0].material
+        return (top.material if isinstance(top, AtTemperature) else top), material
+    return material, layer
+
+
+def _check_cover(material, shift, layer):
+    """``ValueError`` unless a :class:`jaxroll.Stack`'s top ply holds the map's compound
+    (``material``, or ``material`` at some temperature through ``shift``)."""
+    from .engines.stack import Stack
+    from .materials.material import AtTemperature
+
+    if not isinstance(layer, Stack):
+        return
+    top = layer.plies[0].material
+    if isinstance(top, AtTemperature):
+        same = bool(eqx.tree_equal(top.material, material)) and bool(eqx.tree_equal(top.shift, shift))
+    else:
+        same = top is material or bool(eqx.tree_equal(top, material))
+    if not same:
+        raise ValueError("a map of a jr.Stack shifts its top ply's material, which must be the map's material (or "
+                         "jr.at_temperature(material, shift, T) of it): give the cover compound at shift.T_ref as "
+                         "material and the stack with it in the top ply")
+
+
+def _batched_models(material, shift, layer, T):
+    """``(materials, layers, layer_axis)`` at the 1D temperatures ``T`` as
+    :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` takes them: a Layer is shared
+    (``layer_axis = None``); a Stack is batched (every array leaf gets the leading axis, its
+    Python-float leaves, such as a static ``rho = 0``, stay shared so that quasi-static plies
+    keep their formulation)."""
+    from .engines.stack import Stack
+
+    if not isinstance(layer, Stack):
+        return jax.vmap(lambda t: models_at(material, shift, layer, t)[0].checked())(T), layer, None
+    stacks = jax.vmap(lambda t: models_at(material, shift, layer, t)[1])(T)
+    template = models_at(material, shift, layer, T[0])[1]
+    stacks = jax.tree_util.tree_map(lambda b, t: t if isinstance(t, float) else b, stacks, template)
+    mats = jax.vmap(lambda m: m.checked())(stacks.material)
+    return mats, eqx.tree_at(lambda s: s.plies[0].material, stacks, mats), 0
+
+
+def _batch_axes(tree):
+    """``vmap`` axes of a batched tree: 0 for array leaves, ``None`` for Python-float leaves."""
+    return jax.tree_util.tree_map(lambda x: 0 if np.ndim(x) else None, tree)
 
 
 def _reduced(method, layer) -> bool:
@@ -300,18 +389,19 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
     mode: the tangent ``dT = 1`` at every point gives every ``dR_i/dT_i`` at once (each point
     depends on its own temperature only; the warm starts carry no derivative), ``dH = 1`` every
     ``dR_i/dH``, a material tangent every derivative along it."""
-    from .materials.material import at_temperature, shift_factor
+    from .materials.material import shift_factor
     from .rolling import _validated
 
     def values(T, H, mat):
-        lay = with_cover_thickness(layer, H)
-        mats = jax.vmap(lambda t: at_temperature(mat, shift, t).checked())(T)
+        mats, lays, ax = _batched_models(mat, shift, with_cover_thickness(layer, H), T)
         if reduced:  # the reference material at V a_T (see _reduced)
-            res = method.evaluate_points(mat, lay, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
+            res = method.evaluate_points(mat, lays, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
                                          geometry, axes=(None, None, None, 0, 0), count=count)
         else:
-            res = method.evaluate_points(mats, lay, R, P, V, geometry, axes=(0, None, None, 0, 0), count=count)
-        res = jax.vmap(lambda r, m, p, v: _validated(method, m, lay, r, R, p, v, geometry))(res, mats, P, V)
+            res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count)
+        lay_axes = None if ax is None else _batch_axes(lays)
+        res = jax.vmap(lambda r, m, l, p, v: _validated(method, m, l, r, R, p, v, geometry),
+                       in_axes=(0, 0, lay_axes, 0, 0))(res, mats, lays, P, V)
         return res.value, (res.result, res.contact_radius)
 
     H = jnp.asarray(cover_thickness(layer), float)

@@ -68,7 +68,8 @@ def _prepare(method, material, layer, radius, loads, speeds, geometry):
     traced = _traced(material, layer, radius, loads, speeds)
     if not traced:  # concrete values: the rules of jr.Layer and the material, on the host
         material.checked(), layer.checked()
-        check_plausible("rolling_resistance", radius=radius, H=layer.H, G0=material.relaxed_modulus(), speed=speeds,
+        H = layer.H if isinstance(layer, Layer) else [p.H for p in layer.plies]  # a Stack: each ply's thickness
+        check_plausible("rolling_resistance", radius=radius, H=H, G0=material.relaxed_modulus(), speed=speeds,
                         stacklevel=4)
     method.check_geometry(geometry)
     if method.needs_resolution(geometry):

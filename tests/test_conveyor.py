@@ -242,11 +242,3 @@ def test_carcass_plies_pass_through_as_a_stack():
     stiff = jr.StandardLinearSolid(3e8, 2e-5, 0.01)
     on_carcass = conveyor.indentation_resistance(conveyor.belt_stack(cover, 0.005, [jr.Ply(stiff, 0.003)]), **kw)
     assert float(on_carcass.per_width) < float(single.per_width)
-
-
-def test_the_temperature_map_refuses_a_stack_naming_what_is_missing():
-    cover, stiff = jr.StandardLinearSolid(3e6, 2e-5, 1.0), jr.StandardLinearSolid(3e8, 2e-5, 0.01)
-    D, V, q = 0.159, 4.0, 2e3
-    with pytest.raises(NotImplementedError, match="every ply's material"):
-        conveyor.conveyor_map(conveyor.belt_stack(cover, 0.005, [jr.Ply(stiff, 0.003)]), WLF, None, diameter=D,
-                              line_loads=[q], temperatures=[293.15], speeds=[V])

@@ -44,3 +44,12 @@ def test_methods_table_flags_what_the_method_flagged():
     rows[3]["valid"] = True
     assert rd._deviations(rows, "sphere", 0.005, "direct") == "0, -25 % (1 of 2 flagged)"
     assert rd._deviations(rows, "sphere", 0.005, "full") == "reference"
+
+
+def test_recorded_default_grid_errors_are_bounded_by_their_truncation():
+    # docs/validation.md's default-grid table says "the truncation bounds the error at N of N
+    # points": a re-analysis (resistance_forms.py --analyse --record) that breaks the promise fails here
+    rows = json.loads((REPO / "benchmarks" / "numbers.json").read_text())["resistance_forms"]["rows"]
+    defaults = [r["default"] for r in rows if r["default"] is not None]
+    assert len(defaults) >= 60  # 2 geometries x the calibration and validation points of the study
+    assert all(abs(d["error"]) <= d["truncation"] for d in defaults)

@@ -20,14 +20,16 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .precondition import CirculantPreconditioner
 from .system import ContactSystem
 
 __all__ = ["edge_gap_scale", "extrapolated_solve", "smoothed_solve"]
 
-#: Step lengths tried by the damped Newton iteration (Armijo backtracking).
-_ALPHAS = 0.5 ** jnp.arange(10.0)
+#: Step lengths tried by the damped Newton iteration (Armijo backtracking); NumPy, so that importing
+#: the package compiles nothing.
+_ALPHAS = 0.5 ** np.arange(10.0)
 
 
 def _residual(system: ContactSystem, x, c0_ratio, eps):
@@ -90,11 +92,11 @@ def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol,
         x, (F, a, gt), it, _ = state
         mv, M = _jacobian(fixed, a, gt, eps_t, precond)
         step = solver.solve_tracked(mv, -F, None, M(False), tol * 1e-3, robust)[0]
-        trials = jax.vmap(lambda al: _residual(fixed, x + al * step, 1.0, eps_t))(_ALPHAS)
+        trials = jax.vmap(lambda al: _residual(fixed, x + al * step, 1.0, eps_t))(jnp.asarray(_ALPHAS))
         merit = jnp.sum(trials[0] ** 2, axis=1)
         ok = merit <= (1.0 - 1e-4 * _ALPHAS) * jnp.sum(F * F)  # Armijo on |F|^2
         k = jnp.where(jnp.any(ok), jnp.argmax(ok), _ALPHAS.size - 1)
-        x = x + _ALPHAS[k] * step
+        x = x + jnp.asarray(_ALPHAS)[k] * step
         res_k = jax.tree_util.tree_map(lambda t: t[k], trials)
         done = (jnp.max(jnp.abs(res_k[0])) <= tol) | ~jnp.all(jnp.isfinite(x))
         return x, res_k, it + 1, done

@@ -55,7 +55,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._numerics import as_float, to_complex as _c, where_safe
-from ..materials.material import AbstractMaterial, _leaf, complex_modulus, relaxed_modulus
+from ..materials.material import AbstractMaterial, _leaf, _require, complex_modulus, relaxed_modulus
 from .layer import Layer, _density, _sinhc_minus_one
 
 __all__ = ["Ply", "HalfSpace", "Stack", "stack_compliance", "ply_propagator", "models", "A_CAP"]
@@ -179,11 +179,12 @@ class Stack(eqx.Module):
         each ply counts with the ratio of relaxed moduli ``G_top/G_j`` (thin-layer compliances
         in series); a half-space base makes it ``inf`` unless the base is 100 times stiffer than
         the top ply (then the base counts as rigid)."""
-        g_top = relaxed_modulus(self.material)
-        h = sum(as_float(p.H) * g_top / relaxed_modulus(p.material) for p in self.plies)
-        if self.base is None:
-            return h
-        return jnp.where(relaxed_modulus(self.base.material) >= 100.0 * g_top, h, jnp.inf)
+        xp = np if _concrete(self) else jnp  # concrete: host arithmetic (the front doors' checks)
+        g_top = xp.asarray(relaxed_modulus(self.material))
+        h = sum(xp.asarray(p.H) * g_top / xp.asarray(relaxed_modulus(p.material)) for p in self.plies)
+        if self.base is not None:
+            h = xp.where(xp.asarray(relaxed_modulus(self.base.material)) >= 100.0 * g_top, h, xp.inf)
+        return as_float(h)
 
     def equivalent_layer(self) -> Layer:
         """The :class:`~jaxroll.engines.layer.Layer` (:attr:`H`, :attr:`rho`, :attr:`nu`) of the
@@ -204,12 +205,24 @@ class Stack(eqx.Module):
         return out
 
     def checked(self) -> "Stack":
-        """The stack with every ply's ``H`` and ``rho`` checked (:meth:`Layer.checked`)."""
+        """The stack with every ply's ``H`` and ``rho`` checked (:meth:`Layer.checked`): concrete
+        values on the host (``ValueError``; NumPy only, no device work: the front doors check
+        every call), traced ones inside compiled programs."""
+        if _concrete(self):
+            for p in self.plies:
+                _require("Ply.H", np.asarray(p.H), lambda v: v > 0, "a positive, finite thickness in m")
+                _require("Ply.rho", np.asarray(p.rho), lambda v: v >= 0, "a finite, non-negative density in kg/m^3")
+            return self
         plies = []
         for p in self.plies:
             lay = p.layer.checked()
             plies.append(eqx.tree_at(lambda x: (x.H, x.rho), p, (lay.H, lay.rho)))
         return eqx.tree_at(lambda s: s.plies, self, tuple(plies))
+
+
+def _concrete(stack) -> bool:
+    """No leaf of ``stack`` is traced."""
+    return not any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(stack))
 
 
 def models(material, layer):

@@ -33,7 +33,9 @@ import numpy as np
 
 from .._lsq import Z95, least_squares
 from .._numerics import check_plausible
+from ..engines.stack import Stack
 from ..io import UNITS, Column, DataWarning, read_table
+from ..maps import cover_thickness
 from ..materials.material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
 
 __all__ = [
@@ -171,7 +173,7 @@ _DEFAULT_FREE = {StandardLinearSolid: ("G0", "tau", "f"), GeneralizedMaxwell: ("
 def _get(model, name):
     material, layer, shift = model
     if name == "H":
-        return layer.H
+        return cover_thickness(layer)
     if name in ("C1", "C2"):
         if shift is None:
             raise ValueError(f"free parameter {name!r} needs a WLF shift (shift=jr.WLF(...))")
@@ -184,8 +186,8 @@ def _get(model, name):
 
 
 def _where(name):
-    if name == "H":
-        return lambda m: m[1].H
+    if name == "H":  # a Stack: its top ply's thickness
+        return lambda m: m[1].plies[0].H if isinstance(m[1], Stack) else m[1].H
     if name in ("C1", "C2"):
         return lambda m: getattr(m[2], name)
     return lambda m: getattr(m[0], name)
@@ -430,11 +432,21 @@ def _predict_rolling(material, layer, data, problem):
     :func:`jaxroll.rolling_resistance` over the points."""
     from ..rolling import rolling_resistance, rolling_resistance_grid  # the front doors
 
+    material, layer = _with_cover(material, layer)
     kw = dict(radius=problem.radius, geometry=problem.geometry, method=problem.method, throw=False)
     if _use_table(problem.method):
         out = rolling_resistance_grid(material, layer, loads=data["Pu"], speeds=data["Vu"], **kw)
         return out.value[data["iv"], data["ip"]]
     return jax.vmap(lambda v, p: rolling_resistance(material, layer, load=p, speed=v, **kw).value)(data["V"], data["P"])
+
+
+def _with_cover(material, layer):
+    """``(material, layer)`` as the front doors take them: a :class:`jaxroll.Stack` gets
+    ``material`` (the fitted one) in its top ply; its other plies and base stay fixed."""
+    if isinstance(layer, Stack):
+        layer = eqx.tree_at(lambda s: s.plies[0].material, layer, material)
+        return layer.material, layer  # (the stack's own object: the front doors check its identity)
+    return material, layer
 
 
 def _use_table(method):
@@ -593,7 +605,7 @@ def _resolve_for_fit(method, material, layer, radius, rolling, geometry, dense_l
     from ..contact import Dense
 
     # the distinct loads and speeds: the rule visits every load x speed pair of its envelope
-    resolved = method.resolve(material, layer, radius=radius, loads=np.unique(rolling.load),
+    resolved = method.resolve(*_with_cover(material, layer), radius=radius, loads=np.unique(rolling.load),
                               speeds=np.unique(rolling.speed), geometry=geometry)
     out = _on_ladder(resolved)
     if dense_lines and geometry == "cylinder" and out.grid.window <= DENSE_MAX_WINDOW:
@@ -753,7 +765,10 @@ def fit_material(
             ``loss_sigma`` weight the residuals (default relative).
         initial: initial material (:class:`StandardLinearSolid` or :class:`GeneralizedMaxwell`);
             the fitted material has the same type.
-        layer: :class:`jaxroll.Layer` (required with rolling data; ``"H"`` may be free).
+        layer: :class:`jaxroll.Layer` (required with rolling data; ``"H"`` may be free), or a
+            :class:`jaxroll.Stack`: its top ply's material is the one fitted (``initial`` takes
+            its place), the other plies and the base stay as given, and ``"H"`` is the top
+            ply's thickness; ``FitResult.layer`` is the stack with the fitted material on top.
         radius: roller radius [m] (required with rolling data).
         geometry, method: passed to :func:`jaxroll.rolling_resistance` (a method object or a
             shortcut string). Default: ``jaxroll.methods.default_method(geometry, fit=True)``,
@@ -845,8 +860,9 @@ def fit_material(
     for m in messages:
         warnings.warn(m, MisfitWarning if m.startswith("reduced chi^2") else IdentifiabilityWarning, stacklevel=2)
     material, lay, sh = params.build(jnp.asarray(logp), model)
+    lay = lay if lay is None else _with_cover(material, lay)[1]
     check_plausible("fit_material: fitted", G0=material.relaxed_modulus(),
-                    H=lay.H if lay is not None and "H" in names else None)
+                    H=cover_thickness(lay) if lay is not None and "H" in names else None)
     dof = max(n_res - params.size, 1)
     return FitResult(material=material, layer=lay, shift=sh, params=values, stderr=stderr, ci95=ci, covariance=cov,
                      correlation=corr, names=names, converged=bool(converged), residuals=np.asarray(r),
