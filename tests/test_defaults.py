@@ -98,7 +98,7 @@ def test_fit_material_default_resolves_its_grid_and_regrids_once():
     """Without a method a rolling fit uses the smoothed full model on a grid it resolves from the
     data at the initial guess; starting at half the true G0 the contact half-width at the fitted
     point is ~1.4x smaller, beyond REGRID_FACTOR, so the grid is resolved again and the fit
-    restarts there (two entries in ``starts``). Data: the exact 2D half-space solution at 6
+    restarts there (two or more entries in ``starts``). Data: the exact 2D half-space solution at 6
     speeds around the peak and 2 loads, 1 % noise; the fitted G0 and tau are within 10 % (the
     extrapolated smoothed edge is within 0.05 % of the exact contact, but the default grid's own
     error, up to ~0.4 % against the exact solution, is amplified along the G0-tau valley)."""
