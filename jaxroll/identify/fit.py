@@ -550,11 +550,11 @@ FULL_MODEL_RTOL = 1e-6
 
 #: Largest factor by which the grid resolved at the fitted parameters may differ from the grid
 #: of the fit (cell size or window width, either way) before :func:`fit_material` re-resolves
-#: the grid and refits from the fitted point. Tight, because the data hardly constrain the
-#: direction along the G0-tau-f valley: a grid 1.1-1.2x too coarse (the one resolved at a far
-#: start) changes the model by a fraction of its 0.5 % grid error, and that slid the fits of the
-#: 60-point cylinder benchmark along the valley, out of their intervals in 4 of 17 noise draws
-#: (at 1.25; benchmarks/README.md). A re-resolved grid of the same class compiles nothing.
+#: the grid and refits from the fitted point. Tight, so that a fit ends on the grid its own result
+#: asks for, whatever the start: the data hardly constrain the G0-tau-f valley, and a grid
+#: 1.1-1.2x too coarse (the one resolved at a far start) moves the fit along it. It did not raise
+#: the coverage of the 60-point cylinder benchmark's intervals (13 of 17 noise draws at 1.25, 20 of
+#: 27 at 1.05; benchmarks/README.md). A re-resolved grid of the same class compiles nothing.
 REGRID_FACTOR = 1.05
 
 #: Most re-resolutions of the grid per fit (each a fit from the previous result).
