@@ -9,6 +9,9 @@ compilation cache (tests/conftest.py), across modules. Every object is immutable
 modules), so sharing them cannot couple tests.
 """
 
+import logging
+
+import jax
 import jax.numpy as jnp
 
 import jaxroll as jr
@@ -54,3 +57,12 @@ def light_xla_flags(flags: str | None) -> str:
     count that another test may have set."""
     kept = [f for f in (flags or "").split() if "device_count" not in f and "optimization_level" not in f]
     return " ".join([*kept, XLA_LIGHT])
+
+
+def compilations(caplog, fn) -> int:
+    """The number of XLA compilations while ``fn()`` runs (``jax.log_compiles``; ``caplog`` is
+    pytest's fixture)."""
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="jax._src.dispatch"), jax.log_compiles(True):
+        fn()
+    return sum("Finished XLA compilation" in r.getMessage() for r in caplog.records)

@@ -10,7 +10,6 @@ agree to the solver tolerance (``tol = 1e-10`` on the scaled residual, linear so
 """
 
 import functools
-import logging
 
 import jax
 import jax.numpy as jnp
@@ -20,6 +19,7 @@ import pytest
 import jaxroll as jr
 
 from _cases import PAPER, RADIUS, central_difference
+from _cases import compilations as _compilations
 
 from jaxroll.rolling import _validated
 
@@ -148,12 +148,6 @@ def test_points_need_one_batch_length():
                                axes=(None, None, None, 0, 0))
 
 
-def _compilations(caplog, fn):
-    """The number of XLA compilations while ``fn()`` runs (jax.log_compiles)."""
-    caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="jax._src.dispatch"), jax.log_compiles(True):
-        fn()
-    return sum("Finished XLA compilation" in r.getMessage() for r in caplog.records)
 
 
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")

@@ -12,7 +12,7 @@ import pytest
 import jaxroll as jr
 from jaxroll.apps.cli import build_parser
 from jaxroll.apps.cli.options import method_from_args
-from jaxroll.identify.fit import REGRID_FACTOR, IdentifiabilityWarning, RollingData, fit_material
+from jaxroll.identify.fit import MAX_REGRIDS, REGRID_FACTOR, IdentifiabilityWarning, RollingData, fit_material
 from jaxroll.methods import FIT_EDGE_SMOOTHING, default_method
 
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
@@ -98,7 +98,7 @@ def test_fit_material_default_resolves_its_grid_and_regrids_once():
     """Without a method a rolling fit uses the smoothed full model on a grid it resolves from the
     data at the initial guess; starting at half the true G0 the contact half-width at the fitted
     point is ~1.4x smaller, beyond REGRID_FACTOR, so the grid is resolved again and the fit
-    restarts there (two entries in ``starts``). Data: the exact 2D half-space solution at 6
+    restarts there (two or more entries in ``starts``). Data: the exact 2D half-space solution at 6
     speeds around the peak and 2 loads, 1 % noise; the fitted G0 and tau are within 10 % (the
     extrapolated smoothed edge is within 0.05 % of the exact contact, but the default grid's own
     error, up to ~0.4 % against the exact solution, is amplified along the G0-tau valley)."""
@@ -115,7 +115,7 @@ def test_fit_material_default_resolves_its_grid_and_regrids_once():
     assert isinstance(fit.method, jr.Full) and fit.method.edge_smoothing == FIT_EDGE_SMOOTHING
     assert fit.method.edge_extrapolation
     assert isinstance(fit.method.grid, jr.FixedGrid)
-    assert len(fit.starts) == 2  # the first fit, and the one on the grid resolved at its result
+    assert 2 <= len(fit.starts) <= 1 + MAX_REGRIDS  # the first fit, and those on grids resolved at its results
     final = default_method("cylinder", fit=True).resolve(fit.material, HALF, radius=R, loads=P, speeds=V,
                                                          geometry="cylinder")
     # the fit ended on a grid within REGRID_FACTOR of the one its own result needs

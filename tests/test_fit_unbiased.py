@@ -16,8 +16,12 @@ import pytest
 from scipy.stats import binom
 
 import jaxroll as jr
-from jaxroll.identify.fit import IdentifiabilityWarning, RollingData, fit_material, read_rolling_csv
+from jaxroll.contact import Dense
+from jaxroll.identify.fit import (MAX_REGRIDS, REGRID_FACTOR, IdentifiabilityWarning, RollingData, _resolve_for_fit,
+                                  fit_material, read_rolling_csv)
 from jaxroll.methods import default_method
+
+from _cases import compilations
 
 HALF = jr.Layer(H=jnp.inf)
 R = 0.02
@@ -30,8 +34,10 @@ P_LINE = 1e4
 SPEEDS = np.array([1.84e-3, 1.84e-2])
 GRID = jr.Full().resolve(jr.StandardLinearSolid(**TRUE), HALF, radius=R, loads=P_LINE, speeds=SPEEDS,
                          geometry="cylinder").grid
-EXACT = jr.Full(grid=GRID)
-FIT_MODEL = jr.Full(grid=GRID, edge_smoothing=default_method(fit=True).edge_smoothing, edge_extrapolation=True)
+# LU on the small line window, as the default fit solves it (the same solution as GMRES, cheaper)
+EXACT = jr.Full(grid=GRID, linear_solver=Dense())
+FIT_MODEL = jr.Full(grid=GRID, edge_smoothing=default_method(fit=True).edge_smoothing, edge_extrapolation=True,
+                    linear_solver=Dense())
 
 
 @functools.partial(jax.jit, static_argnums=2)
@@ -106,26 +112,32 @@ def _draws(data, seeds):
 
 def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
     """Reduced copy of the coverage check: 20 points (every third speed) of fit_cylinder.csv,
-    the shipped draw and two fresh ones, started near the truth (one grid, no re-resolution: the
-    three fits share one compiled model; the far start is the slow test's); 9 intervals at 95 %:
-    P(hits <= 6) ~ 8e-3 for honest ones. 447 s at load average ~19 on 2 cores (15 points, every
-    fourth speed, gave 6 of 9: too few speeds across the peak for linearised intervals)."""
+    the shipped draw and two fresh ones, started near the truth (the three fits, and their
+    re-resolved grids of the same class, share one compiled model; the far start is the slow
+    test's); each ends on the grid the rule gives at its own result; 9 intervals at 95 %:
+    P(hits <= 6) ~ 8e-3 for honest ones (15 points, every fourth speed, gave 6 of 9: too few
+    speeds across the peak for linearised intervals)."""
     data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
     near = jr.StandardLinearSolid(G0=2.7e6, tau=0.27, f=0.9)
     fits = [_fit(d, "cylinder", near) for d in [data, *_draws(data, range(2))]]
     assert all(f.converged for f in fits)
-    assert isinstance(fits[0].method.grid, jr.FixedGrid)  # resolved by the fit itself
-    assert all(len(f.starts) == 1 for f in fits)  # the near start needs no second grid
+    for f in fits:  # each ends on the grid the rule gives at its own result (resolved by the fit itself)
+        assert isinstance(f.method.grid, jr.FixedGrid)
+        _, own = _resolve_for_fit(default_method("cylinder", fit=True), f.material, HALF, R, data, "cylinder")
+        assert max(own.spacing / f.method.grid.spacing, f.method.grid.spacing / own.spacing) <= REGRID_FACTOR
+        assert len(f.starts) <= 1 + MAX_REGRIDS
     hits = sum(_covered(f) for f in fits)
     assert hits >= 7, [(f.params, f.ci95) for f in fits]
 
 
 def _coverage(geometry, n):
+    """Per parameter, how many of ``n`` noise draws' 95 % intervals hold the truth, and the lower
+    0.5 % quantile of Binomial(n, 0.95) (the draws are the independent trials: the three
+    parameters lie along one valley and miss together); honest intervals fail it 1 time in 200."""
     data = read_rolling_csv(jr.datasets.path(f"fit_{geometry}.csv"))
     fits = [_fit(d, geometry) for d in _draws(data, range(n))]
-    hits, total = sum(_covered(f) for f in fits), 3 * n
-    # the lower 0.5 % quantile of Binomial(total, 0.95): honest intervals fail this 1 time in 200
-    return hits, total, binom.ppf(0.005, total, 0.95)
+    hits = {p: sum(bool(f.ci95[p][0] <= TRUE[p] <= f.ci95[p][1]) for f in fits) for p in TRUE}
+    return hits, binom.ppf(0.005, n, 0.95)
 
 
 @pytest.mark.slow
@@ -142,6 +154,39 @@ def test_sixty_point_fit_recovers_the_truth(geometry):
 @pytest.mark.slow
 @pytest.mark.parametrize("geometry,n", [("cylinder", 30), ("sphere", 20)])
 def test_interval_coverage(geometry, n):
-    hits, total, lowest = _coverage(geometry, n)
-    print(f"{geometry}: {hits}/{total} intervals hold the truth")
-    assert hits >= lowest, (hits, total)
+    """Measured (benchmarks/README.md, "The default fit's cost"): the cylinder's intervals hold the
+    truth in about 4 of 5 draws, below this bound (the model's grid error along the valley)."""
+    hits, lowest = _coverage(geometry, n)
+    print(f"{geometry}: {hits} of {n} draws' intervals hold the truth")
+    assert min(hits.values()) >= lowest, (hits, n)
+
+
+def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
+    """Issue 31.3: the fit's grid is re-resolved when the fitted contact leaves the envelope it
+    was sized for; a grid of the same class (same cells per half-width, the window on the
+    ladder) differs only in the cell size, a traced value of the compiled residual and
+    Jacobian, so the refit compiles nothing. Here the grids resolved at G0 = 2.7 and 3.3 MPa
+    over the reduced set (the second one's cells 10 % smaller: a0 ~ G0^-1/2)."""
+    from jaxroll.identify.fit import _data_arrays, _Params, _Problem, _residuals_and_jacobian_jit
+
+    data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
+    auto = default_method("cylinder", fit=True)
+    problems = []
+    for G0 in (2.7e6, 3.3e6):
+        mat = jr.StandardLinearSolid(G0=G0, tau=0.27, f=0.9)
+        method, _ = _resolve_for_fit(auto, mat, HALF, R, data, "cylinder", dense_lines=True)
+        params = _Params.of((mat, HALF, None), tuple(TRUE), None)
+        problems.append((method, params.logp0((mat, HALF, None)), (mat, HALF, None),
+                         _Problem.of(params, R, "cylinder", method, None)))
+    (m1, lp1, model1, p1), (m2, _, _, p2) = problems
+    assert m1.grid.window == m2.grid.window
+    assert float(m2.grid.spacing) / float(m1.grid.spacing) == pytest.approx((2.7 / 3.3) ** 0.5, rel=0.02)
+    arrays, lp = _data_arrays(data, None, m1), jnp.asarray(lp1)
+    r1 = np.asarray(_residuals_and_jacobian_jit(lp, model1, arrays, p1)[0])  # compiled by the fits above
+    out = []
+    assert compilations(caplog, lambda: out.append(_residuals_and_jacobian_jit(lp, model1, arrays, p2))) == 0
+    # the same material on the second grid: a new cell size was used (another discretisation
+    # error), and both agree within the grid rule's 0.5 % each (residuals in units of
+    # sigma = 2 % of R_r: 1 % is 0.5)
+    r2 = np.asarray(out[0][0])
+    assert 0 < np.max(np.abs(r2 - r1)) < 0.5

@@ -405,16 +405,22 @@ class FitResult:
 
 
 class _Problem(eqx.Module):
-    """The static part of a fit: the free parameters, how the rolling resistance is computed
-    and how the Jacobian is formed. Hashable (the method is an equinox module of static
-    configuration), so it keys the compiled residual and Jacobian: fits that differ only in
-    data values, initial values or fixed parameter values reuse one compiled program."""
+    """The configuration of a fit: the free parameters, how the rolling resistance is computed
+    and how the Jacobian is formed. Its static part keys the compiled residual and Jacobian;
+    the method enters with its grid lengths as arrays (``method.dynamic()``: the cell size is a
+    traced value, the window static), so fits that differ only in data values, initial values,
+    fixed parameter values or the cell size of the grid reuse one compiled program."""
 
     params: _Params
     radius: float | None = eqx.field(static=True)
     geometry: str = eqx.field(static=True)
-    method: object = eqx.field(static=True)  # an AbstractMethod, or None for DMA-only fits
+    method: object  # an AbstractMethod with traced grid lengths, or None for DMA-only fits
     jac_step: float | None = eqx.field(static=True)
+
+    @classmethod
+    def of(cls, params, radius, geometry, method, jac_step):
+        return cls(params, None if radius is None else float(radius), geometry,
+                   None if method is None else method.dynamic(), None if jac_step is None else float(jac_step))
 
 
 def _predict_rolling(material, layer, data, problem):
@@ -544,15 +550,67 @@ FULL_MODEL_RTOL = 1e-6
 
 #: Largest factor by which the grid resolved at the fitted parameters may differ from the grid
 #: of the fit (cell size or window width, either way) before :func:`fit_material` re-resolves
-#: the grid and refits once from the fitted point.
-REGRID_FACTOR = 1.25
+#: the grid and refits from the fitted point. Tight, so that a fit ends on the grid its own result
+#: asks for, whatever the start: the data hardly constrain the G0-tau-f valley, and a grid
+#: 1.1-1.2x too coarse (the one resolved at a far start) moves the fit along it. It did not raise
+#: the coverage of the 60-point cylinder benchmark's intervals (13 of 17 noise draws at 1.25, 20 of
+#: 27 at 1.05; benchmarks/README.md). A re-resolved grid of the same class compiles nothing.
+REGRID_FACTOR = 1.05
+
+#: Most re-resolutions of the grid per fit (each a fit from the previous result).
+MAX_REGRIDS = 3
 
 
-def _resolve_for_fit(method, material, layer, radius, rolling, geometry):
-    """``method`` with its :class:`~jaxroll.grids.AutoGrid` resolved over the data envelope
-    (every measured speed and load) for ``material`` and ``layer`` (concrete values)."""
-    return method.resolve(*_with_cover(material, layer), radius=radius, loads=np.asarray(rolling.load),
-                          speeds=np.asarray(rolling.speed), geometry=geometry)
+#: Rungs of the fit's window ladder per octave: the window's half-width in cells is rounded up to
+#: ``ceil(2^(j/8))`` (at most 9 % wider), so that grids resolved at other parameters share the
+#: window (a static shape) and differ only in the cell size (a traced value): one compiled program.
+WINDOW_RUNGS_PER_OCTAVE = 8
+
+
+def _window_rung(half: int) -> int:
+    """The smallest rung ``ceil(2^(j/8)) >= half`` of the window ladder."""
+    j = math.ceil(WINDOW_RUNGS_PER_OCTAVE * math.log2(max(half, 1)) - 1e-9)
+    while math.ceil(2.0 ** ((j - 1) / WINDOW_RUNGS_PER_OCTAVE)) >= half and j > 0:
+        j -= 1
+    return math.ceil(2.0 ** (j / WINDOW_RUNGS_PER_OCTAVE))
+
+
+def _on_ladder(method):
+    """``method`` with the window of its (infinite-layer) grid widened to the next rung of the
+    window ladder (same cell size and parity; a wider window changes no solution while the
+    contact stays inside); periodic grids, whose window is bounded by the period, as given."""
+    from ..grids import FixedGrid
+
+    grid = method.grid
+    if not isinstance(grid, FixedGrid) or grid.period is not None:
+        return method
+    window = 2 * _window_rung(grid.window // 2) + grid.window % 2
+    return eqx.tree_at(lambda m: m.grid, method, FixedGrid(grid.spacing, window, n_terms=grid.n_terms))
+
+
+#: Largest window [cells] of a line (cylinder) grid on which the default fit solves its contact
+#: systems by LU (:class:`jaxroll.contact.Dense`) instead of GMRES: the same solution (the
+#: 60-point cylinder benchmark, window 108: residuals and Jacobian equal to 5e-14), 3-4x less
+#: time per evaluation there (0.12-0.17 s against 0.48 s of CPU) and a third less compilation. LU
+#: grows like the window cubed: above this size GMRES is kept.
+DENSE_MAX_WINDOW = 256
+
+
+def _resolve_for_fit(method, material, layer, radius, rolling, geometry, dense_lines=False):
+    """``(grid method, resolved grid)``: ``method`` with its :class:`~jaxroll.grids.AutoGrid`
+    resolved over the data envelope (every measured speed and load) for ``material`` and
+    ``layer`` (concrete values), its window on the ladder (:func:`_on_ladder`); and the grid as
+    resolved (before the ladder), which :func:`_grid_moved` compares. ``dense_lines``: a line
+    window of at most :data:`DENSE_MAX_WINDOW` cells gets the dense linear solver."""
+    from ..contact import Dense
+
+    # the distinct loads and speeds: the rule visits every load x speed pair of its envelope
+    resolved = method.resolve(*_with_cover(material, layer), radius=radius, loads=np.unique(rolling.load),
+                              speeds=np.unique(rolling.speed), geometry=geometry)
+    out = _on_ladder(resolved)
+    if dense_lines and geometry == "cylinder" and out.grid.window <= DENSE_MAX_WINDOW:
+        out = eqx.tree_at(lambda m: m.linear_solver, out, Dense())
+    return out, resolved.grid
 
 
 def _grid_moved(old, new) -> bool:
@@ -717,9 +775,10 @@ def fit_material(
             the full model with the smoothed contact edge (the exact discrete R_r wiggles with
             the contact set and the iteration stalls on it; fitting/README.md). A method with an
             :class:`~jaxroll.grids.AutoGrid` is resolved here over the data envelope (every
-            measured speed and load) at ``initial``; if the grid resolved at the fitted
+            measured speed and load) at ``initial``; while the grid resolved at the fitted
             parameters differs by more than :data:`REGRID_FACTOR` in cell size or window width,
-            it is resolved there once more and the fit restarts from the fitted point. A
+            it is resolved there and the fit restarts from the fitted point (at most
+            :data:`MAX_REGRIDS` times). A
             :class:`jaxroll.FixedGrid` is used as given. The full model is evaluated on the
             table of the distinct speeds x loads (:func:`jaxroll.rolling_resistance_grid`).
         free: names of the free parameters (material fields, ``"H"``, ``"C1"``/``"C2"``);
@@ -748,8 +807,11 @@ def fit_material(
             callable ``progress(count, chi2, params_dict, seconds)``.
 
     The residual and Jacobian are compiled once per static configuration (free parameters,
-    bounds, method, geometry, radius, data shapes): repeated fits of data of the same shape
-    do not recompile.
+    bounds, method, geometry, radius, data shapes, the grid's window): repeated fits of data of
+    the same shape do not recompile, nor does a re-resolved grid of the same class (its cell size
+    is a traced value, its window rounded up to a ladder of 2^(1/8) steps). The default method on a
+    cylinder solves its contact systems by LU where the window has at most
+    :data:`DENSE_MAX_WINDOW` cells (the same numbers, less time).
 
     Returns:
         :class:`FitResult`.
@@ -759,6 +821,7 @@ def fit_material(
     free = _DEFAULT_FREE[type(initial)] if free is None and type(initial) in _DEFAULT_FREE else free
     if rtol is None:  # the default full model's tolerance; any named method keeps 1e-10
         rtol = FULL_MODEL_RTOL if method is None and rolling is not None else 1e-10
+    dense_lines = method is None  # the default method: LU on small line windows (same numbers)
     method = _check_problem(rolling, dma, initial, free or (), layer, radius, geometry, method, shift)
     check_plausible("fit_material", radius=radius, H=None if layer is None else layer.H,
                     speed=None if rolling is None else rolling.speed)
@@ -769,25 +832,25 @@ def fit_material(
         raise ValueError(f"{n_res} residuals cannot determine {params.size} parameters")
     auto = method if method is not None and method.needs_resolution(geometry) else None
     if auto is not None:
-        method = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry)
+        method, resolved = _resolve_for_fit(auto, initial, layer, radius, rolling, geometry, dense_lines)
 
     def run(method, model, n_starts):
         params = _Params.of(model, free, bounds)
-        problem = _Problem(params, None if rolling is None else float(radius), geometry, method,
-                           None if jac_step is None else float(jac_step))
+        problem = _Problem.of(params, None if rolling is None else radius, geometry, method, jac_step)
         out = _multistart(problem, model, _data_arrays(rolling, dma, method), solver=solver, n_starts=n_starts,
                           spread_decades=spread_decades, seed=seed, max_steps=max_steps, rtol=rtol,
                           progress=progress)
         return params, out
 
     params, (u, converged, cost, r, J, starts) = run(method, model, n_starts)
-    if auto is not None:  # the fitted contact left the envelope the grid was resolved for: once more
+    for _ in range(MAX_REGRIDS if auto is not None else 0):  # the fit left the grid's envelope: again
         material, lay, sh = params.build(jnp.asarray(params.logp_and_slope(u)[0]), model)
-        again = _resolve_for_fit(auto, material, lay, radius, rolling, geometry)
-        if _grid_moved(method.grid, again.grid):
-            method, model = again, (material, lay, sh)
-            params, (u, converged, cost, r, J, more) = run(method, model, 1)
-            starts = starts + more
+        again, again_resolved = _resolve_for_fit(auto, material, lay, radius, rolling, geometry, dense_lines)
+        if not _grid_moved(resolved, again_resolved):
+            break
+        method, model, resolved = again, (material, lay, sh), again_resolved
+        params, (u, converged, cost, r, J, more) = run(method, model, 1)
+        starts = starts + more
     logp = params.logp_and_slope(u)[0]
     values, stderr, ci, cov, corr, sd_log = _uncertainty(params, logp, r, J, absolute_sigma)
     names = params.names_flat()

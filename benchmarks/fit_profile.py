@@ -1,0 +1,69 @@
+"""Profile one fit of the shipped identification benchmark (jaxroll/datasets/fit_<geometry>.csv)
+with every default: CPU and wall seconds, model evaluations (residual and Jacobian together),
+least-squares iterations, XLA compilations and their seconds, time per evaluation.
+
+Run: ``python benchmarks/fit_profile.py [--geometry cylinder|sphere] [--points every]``.
+"""
+
+import argparse
+import os
+import time
+import warnings
+
+import jax
+import numpy as np
+
+import jaxroll as jr
+from jaxroll.identify import fit as fit_module
+from jaxroll.identify.fit import IdentifiabilityWarning, RollingData, fit_material, read_rolling_csv
+
+START = jr.StandardLinearSolid(G0=2e6, tau=0.35, f=0.7)
+HALF = jr.Layer(H=float("inf"))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--geometry", default="cylinder", choices=["sphere", "cylinder"])
+    ap.add_argument("--every", type=int, default=1, help="keep every n-th point")
+    args = ap.parse_args()
+    data = read_rolling_csv(jr.datasets.path(f"fit_{args.geometry}.csv"))
+    keep = np.arange(len(data.speed)) % args.every == 0
+    data = RollingData(data.speed[keep], data.load[keep], data.value[keep], data.sigma[keep])
+
+    compiles = []
+    jax.monitoring.register_event_duration_secs_listener(
+        lambda name, secs, **kw: compiles.append(secs) if name == "/jax/core/compile/backend_compile_duration"
+        else None)
+    evaluations, seconds = [0], [0.0]
+    inner = fit_module._residuals_and_jacobian_jit
+
+    def counted(*a, **k):
+        t = time.process_time()
+        out = jax.block_until_ready(inner(*a, **k))
+        evaluations[0] += 1
+        seconds[0] += time.process_time() - t
+        return out
+
+    fit_module._residuals_and_jacobian_jit = counted
+    iterations = []
+    load = os.getloadavg()[0]
+    t, c = time.perf_counter(), time.process_time()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentifiabilityWarning)
+        res = fit_material(data, initial=START, layer=HALF, radius=0.02, geometry=args.geometry, absolute_sigma=True,
+                           progress=lambda k, chi2, values, s: iterations.append((k, chi2, s)))
+    wall, cpu = time.perf_counter() - t, time.process_time() - c
+    print(f"{args.geometry}, {int(keep.sum())} points: {wall:.1f} s wall, {cpu:.1f} s CPU (load {load:.1f} before, "
+          f"{os.getloadavg()[0]:.1f} after)")
+    print(f"  evaluations (r and J together): {evaluations[0]}, {seconds[0]:.1f} s CPU in them "
+          f"({seconds[0] / max(evaluations[0], 1):.2f} s each incl. compiles); accepted points (Jacobian calls): "
+          f"{len(iterations)}; runs (grids): {len(res.starts)}")
+    print(f"  XLA compilations: {len(compiles)}, {sum(compiles):.1f} s; largest {sorted(compiles)[-3:]}")
+    print(f"  grid: {res.method.grid}")
+    for n in res.params:
+        print(f"  {n} {float(res.params[n]):.6g} [{float(res.ci95[n][0]):.6g}, {float(res.ci95[n][1]):.6g}]")
+    print(f"  chi2/dof {res.reduced_chi2:.4f}; converged {res.converged}")
+
+
+if __name__ == "__main__":
+    main()
