@@ -97,8 +97,12 @@ def pytest_terminal_summary(terminalreporter):
 def pytest_sessionfinish(session, exitstatus):
     log = os.environ.get("JAXROLL_TEST_CPU_LOG")
     if log:  # the whole process (collection, imports and fixtures outside the tests included)
+        # a pytest-xdist controller counts only itself: its workers are its children, and each
+        # logs its own total (counting them here too doubled the sum in benchmarks/suite_cost.py)
+        t = os.times()
+        cpu = t.user + t.system if _WORKERS else _cpu_seconds()
         with open(f"{log}.{os.environ.get('PYTEST_XDIST_WORKER', 'main')}", "a") as out:
-            out.write(f"<process total>\t{_cpu_seconds():.2f}\t{time.perf_counter():.2f}\t{os.getloadavg()[0]:.1f}\n")
+            out.write(f"<process total>\t{cpu:.2f}\t{time.perf_counter():.2f}\t{os.getloadavg()[0]:.1f}\n")
     if hasattr(session.config, "workeroutput"):  # a pytest-xdist worker: report to the controller
         session.config.workeroutput["jaxroll_compilation"] = dict(_COMPILATION)
     cache = globals().get("_CACHE_DIR")
