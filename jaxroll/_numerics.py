@@ -34,7 +34,7 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["as_float", "check_input", "check_plausible", "check_x64", "input_checks", "newton_root", "NewtonInfo",
+__all__ = ["any_traced", "as_float", "check_input", "check_plausible", "check_x64", "input_checks", "newton_root", "NewtonInfo",
            "PLAUSIBLE", "PlausibilityWarning", "roller_inputs",
            "to_complex", "where_safe"]
 
@@ -71,6 +71,12 @@ def check_input(x, failed, message: str):
     if not _INPUT_CHECKS.get():
         return x
     return eqx.error_if(x, failed, message)
+
+
+def any_traced(*trees) -> bool:
+    """Whether any leaf of ``trees`` is a JAX tracer (inside ``jit``/``vmap``/``grad``): the front
+    doors check concrete values on the host and traced ones inside the compiled program."""
+    return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(trees))
 
 
 def as_float(x) -> jax.Array:

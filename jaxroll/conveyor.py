@@ -27,8 +27,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .engines.stack import cover_thickness, with_cover_thickness
 from .io import write_table
-from .maps import cover_thickness, map_points, with_cover_thickness
+from .maps import map_points
 from .result import RESULTS, RollingResult
 from .rolling import rolling_resistance, rolling_resistance_grid
 

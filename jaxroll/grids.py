@@ -381,11 +381,7 @@ class AutoGrid(eqx.Module):
         :func:`sphere_cells_per_radius`; ``"static"`` (the static pressure of
         :class:`~jaxroll.DirectElastic`): :data:`SPHERE_CELLS_PER_RADIUS`."""
         loads, speeds = _envelope(loads, speeds)
-        if model == "full":
-            P, V = (x.ravel() for x in np.meshgrid(loads, speeds, indexing="ij"))
-            r = _grid_sizes(material, layer, radius, P, V, "sphere")
-        else:
-            r = _sizes(material, layer, radius, loads, "sphere")
+        r, V = _rule_sizes(material, layer, radius, loads, speeds, "sphere", model == "full")
         H = float(np.asarray(layer.H))
         cpr = self.cells_per_radius
         if cpr is None:
@@ -420,11 +416,7 @@ class AutoGrid(eqx.Module):
         a0 = np.sqrt(loads * float(radius) / (np.pi * G0))  # relaxed Hertz half-width (E* = 4 G0)
         H = float(np.asarray(layer.H))
         cpr = self.cells_per_radius
-        if model == "full":
-            P, V = (x.ravel() for x in np.meshgrid(loads, speeds, indexing="ij"))
-            a = _grid_sizes(material, layer, radius, P, V, "cylinder")
-        else:
-            a = _sizes(material, layer, radius, loads, "cylinder")
+        a, V = _rule_sizes(material, layer, radius, loads, speeds, "cylinder", model == "full")
         if cpr is None and model == "full":
             cpr = max(cylinder_cells_per_radius(z, b) for z, b in _point_regimes(material, V, a))
         elif cpr is None:
@@ -888,6 +880,16 @@ def _grid_sizes(material, layer, radius, loads, speeds, geometry):
     if not np.all(np.isfinite(r) & (r > 0)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
     return _quantised(r, _sizes(material, layer, radius, loads, geometry))
+
+
+def _rule_sizes(material, layer, radius, loads, speeds, geometry, full):
+    """``(sizes, their speeds)`` an envelope's rule reads: for a full model the counting size
+    (:func:`_grid_sizes`) of every load x speed pair, with the pairs' speeds; otherwise the
+    relaxed size of every load, and ``None``."""
+    if not full:
+        return _sizes(material, layer, radius, loads, geometry), None
+    P, V = (x.ravel() for x in np.meshgrid(loads, speeds, indexing="ij"))
+    return _grid_sizes(material, layer, radius, P, V, geometry), V
 
 
 def _longest_time(material) -> float:

@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import check_plausible
+from .engines.stack import cover_thickness, with_cover_material, with_cover_thickness
 from .io import write_table
 
 
@@ -271,28 +272,6 @@ def _outside_measured(shift, T, V, a, measured_temperatures, measured_frequencie
     return outside
 
 
-def cover_thickness(layer):
-    """The thickness [m] differentiated by the maps: ``H`` of a :class:`jaxroll.Layer`, or of
-    the top ply (the cover) of a :class:`jaxroll.Stack`."""
-    return _cover_path(layer)(layer)
-
-
-def with_cover_thickness(layer, H):
-    """``layer`` with its cover thickness (that of :func:`cover_thickness`) set to ``H`` [m]."""
-    return eqx.tree_at(_cover_path(layer), layer, H)
-
-
-def _cover_path(layer):
-    from .engines.layer import Layer
-    from .engines.stack import Stack
-
-    if isinstance(layer, Layer):
-        return lambda l: l.H
-    if isinstance(layer, Stack):
-        return lambda l: l.plies[0].H
-    raise ValueError(f"the maps take a material and a jr.Layer or jr.Stack; got a {type(layer).__name__}")
-
-
 def models_at(material, shift, layer, T):
     """``(material, layer)`` at temperature ``T`` [K] as the methods take them (scalar ``T``;
     jittable). A :class:`jaxroll.Layer`: ``(at_temperature(material, shift, T), layer)``. A
@@ -312,9 +291,9 @@ def models_at(material, shift, layer, T):
     def shifted(m):
         return eqx.tree_at(lambda x: x.T, m, jnp.asarray(T, float)) if isinstance(m, AtTemperature) else m
 
-    plies = [eqx.tree_at(lambda p: p.material, layer.plies[0], top)]
-    plies += [eqx.tree_at(lambda p: p.material, p, shifted(p.material)) for p in layer.plies[1:]]
-    stack = eqx.tree_at(lambda s: s.plies, layer, tuple(plies))
+    stack = with_cover_material(layer, top)
+    plies = stack.plies[:1] + tuple(eqx.tree_at(lambda p: p.material, p, shifted(p.material)) for p in stack.plies[1:])
+    stack = eqx.tree_at(lambda s: s.plies, stack, plies)
     if stack.base is not None:
         stack = eqx.tree_at(lambda s: s.base.material, stack, shifted(stack.base.material))
     return stack.material, stack

@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_plausible, check_roller_values, input_checks, roller_inputs
+from ._numerics import any_traced, as_float, check_plausible, check_roller_values, input_checks, roller_inputs
 from .engines.layer import Layer
 from .engines.stack import Stack, models
 from .materials.material import AbstractMaterial
@@ -46,10 +46,6 @@ _AUTOGRID_TRACED = (
 )
 
 
-def _traced(*trees) -> bool:
-    return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(trees))
-
-
 def _check_models(material, layer):
     if not isinstance(material, AbstractMaterial):
         raise ValueError(f"material must be a jaxroll material (jr.StandardLinearSolid, jr.GeneralizedMaxwell, "
@@ -65,7 +61,7 @@ def _prepare(method, material, layer, radius, loads, speeds, geometry):
     method = as_method(default_method(geometry) if method is None else method)
     _check_models(material, layer)
     check_roller_values(radius, loads, speeds)
-    traced = _traced(material, layer, radius, loads, speeds)
+    traced = any_traced(material, layer, radius, loads, speeds)
     if not traced:  # concrete values: the rules of jr.Layer and the material, on the host
         material.checked(), layer.checked()
         H = layer.H if isinstance(layer, Layer) else [p.H for p in layer.plies]  # a Stack: each ply's thickness

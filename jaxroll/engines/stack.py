@@ -54,11 +54,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._numerics import as_float, to_complex as _c, where_safe
+from .._numerics import any_traced, as_float, to_complex as _c, where_safe
 from ..materials.material import AbstractMaterial, _leaf, _require, complex_modulus, relaxed_modulus
 from .layer import Layer, _density, _sinhc_minus_one
 
-__all__ = ["Ply", "HalfSpace", "Stack", "stack_compliance", "ply_propagator", "models", "A_CAP"]
+__all__ = ["Ply", "HalfSpace", "Stack", "stack_compliance", "ply_propagator", "models", "cover_path", "cover_thickness",
+           "with_cover_thickness", "with_cover_material", "A_CAP"]
 
 #: cap on each ply's ``q H min(1, Re s)``: beyond it the plies below matter to ``e^{-2 A_CAP}``
 A_CAP = 20.0
@@ -179,7 +180,7 @@ class Stack(eqx.Module):
         each ply counts with the ratio of relaxed moduli ``G_top/G_j`` (thin-layer compliances
         in series); a half-space base makes it ``inf`` unless the base is 100 times stiffer than
         the top ply (then the base counts as rigid)."""
-        xp = np if _concrete(self) else jnp  # concrete: host arithmetic (the front doors' checks)
+        xp = np if not any_traced(self) else jnp  # concrete: host arithmetic (the front doors' checks)
         g_top = xp.asarray(relaxed_modulus(self.material))
         h = sum(xp.asarray(p.H) * g_top / xp.asarray(relaxed_modulus(p.material)) for p in self.plies)
         if self.base is not None:
@@ -208,7 +209,7 @@ class Stack(eqx.Module):
         """The stack with every ply's ``H`` and ``rho`` checked (:meth:`Layer.checked`): concrete
         values on the host (``ValueError``; NumPy only, no device work: the front doors check
         every call), traced ones inside compiled programs."""
-        if _concrete(self):
+        if not any_traced(self):
             for p in self.plies:
                 _require("Ply.H", np.asarray(p.H), lambda v: v > 0, "a positive, finite thickness in m")
                 _require("Ply.rho", np.asarray(p.rho), lambda v: v >= 0, "a finite, non-negative density in kg/m^3")
@@ -220,9 +221,30 @@ class Stack(eqx.Module):
         return eqx.tree_at(lambda s: s.plies, self, tuple(plies))
 
 
-def _concrete(stack) -> bool:
-    """No leaf of ``stack`` is traced."""
-    return not any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(stack))
+def cover_path(layer):
+    """The path (for :func:`equinox.tree_at`) to the thickness of the cover: ``H`` of a
+    :class:`~jaxroll.Layer`, or of the top ply of a :class:`~jaxroll.Stack` (the thickness the
+    maps differentiate and the fits may free)."""
+    if isinstance(layer, Layer):
+        return lambda l: l.H
+    if isinstance(layer, Stack):
+        return lambda l: l.plies[0].H
+    raise ValueError(f"expected a jr.Layer or jr.Stack; got a {type(layer).__name__}")
+
+
+def cover_thickness(layer):
+    """The cover's thickness [m] (:func:`cover_path`)."""
+    return cover_path(layer)(layer)
+
+
+def with_cover_thickness(layer, H):
+    """``layer`` with its cover thickness (:func:`cover_path`) set to ``H`` [m]."""
+    return eqx.tree_at(cover_path(layer), layer, H)
+
+
+def with_cover_material(stack, material):
+    """``stack`` with ``material`` in its top ply (the cover a map shifts or a fit frees)."""
+    return eqx.tree_at(lambda s: s.plies[0].material, stack, material)
 
 
 def models(material, layer):

@@ -33,9 +33,8 @@ import numpy as np
 
 from .._lsq import Z95, least_squares
 from .._numerics import check_plausible
-from ..engines.stack import Stack
+from ..engines.stack import Stack, cover_path, cover_thickness, with_cover_material
 from ..io import UNITS, Column, DataWarning, read_table
-from ..maps import cover_thickness
 from ..materials.material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
 
 __all__ = [
@@ -187,7 +186,7 @@ def _get(model, name):
 
 def _where(name):
     if name == "H":  # a Stack: its top ply's thickness
-        return lambda m: m[1].plies[0].H if isinstance(m[1], Stack) else m[1].H
+        return lambda m: cover_path(m[1])(m[1])
     if name in ("C1", "C2"):
         return lambda m: getattr(m[2], name)
     return lambda m: getattr(m[0], name)
@@ -444,7 +443,7 @@ def _with_cover(material, layer):
     """``(material, layer)`` as the front doors take them: a :class:`jaxroll.Stack` gets
     ``material`` (the fitted one) in its top ply; its other plies and base stay fixed."""
     if isinstance(layer, Stack):
-        layer = eqx.tree_at(lambda s: s.plies[0].material, layer, material)
+        layer = with_cover_material(layer, material)
         return layer.material, layer  # (the stack's own object: the front doors check its identity)
     return material, layer
 
