@@ -90,7 +90,8 @@ def method_args(p, *, fit=False, default=None):
     g.add_argument("--n-terms", dest="n_terms", type=count("--n-terms"), default=None,
                    help="Fourier cut-off of the periodic 3D compliance (paper: 500); default the period cells")
     g.add_argument("--cells-per-radius", dest="cells_per_radius", type=count("--cells-per-radius"), default=None,
-                   help="automatic grid: cells per contact radius (default: sphere 12, lines 25-128 by speed)")
+                   help="automatic grid: cells per contact radius (default by the regime: full 3D 12-48, full 2D "
+                        "12-400, slices 25-192)")
     g.add_argument("--edge-smoothing", dest="edge_smoothing", type=positive("--edge-smoothing"), default=None,
                    help="--method full: smoothed contact edge kappa (0.25 on the paper's grid; for fits)")
     g.add_argument("--n-slices", dest="n_slices", type=count("--n-slices"), default=21,
