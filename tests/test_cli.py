@@ -516,15 +516,19 @@ def test_every_option_has_help_and_the_texts_render_cleanly():
 
 
 def test_material_prony_smoothness_is_the_library_fit(material_dir, tmp_path):
-    """--prony-smoothness 1 writes the library's smoothed fit (3 times per decade) and records it."""
+    """--prony-smoothness 1 --phase-sigma 0.003 --modulus-sigma 0.02 writes the library's smoothed
+    fit (3 times per decade) under that instrument error model and records them."""
     data, _ = material_dir
-    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--out", str(tmp_path)]) == 0
+    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--phase-sigma", "0.003",
+                 "--modulus-sigma", "0.02", "--out", str(tmp_path)]) == 0
     sw = jr.read_dma_sweeps(data)
-    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0).material
+    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0, phase_sigma=0.003,
+                        modulus_sigma=0.02).material
     mat, _ = jr.load_material(tmp_path / "material.json")
     np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
     np.testing.assert_allclose(np.asarray(mat.tau), np.asarray(want.tau), rtol=1e-12)
-    assert json.loads((tmp_path / "material.json").read_text())["info"]["prony"]["smoothness"] == 1.0
+    prony = json.loads((tmp_path / "material.json").read_text())["info"]["prony"]
+    assert (prony["smoothness"], prony["phase_sigma"], prony["modulus_sigma"]) == (1.0, 0.003, 0.02)
 
 
 def test_conveyor_trough_rows_match_the_library(material_dir, tmp_path, capsys):
