@@ -368,6 +368,14 @@ def test_material_writes_the_library_fits_and_every_export(material_dir, capsys)
         assert (out / name).stat().st_size > 0
     report = (out / "material_report.txt").read_text()
     assert f"Prony: {pf.n_terms} terms" in report and "WLF: C1 = " in report
+    # the residual per decade of reduced omega (issue 28, item 5): the library fit's residuals, binned
+    assert "Prony rms log residual per decade" in report
+    decade = np.floor(np.log10(w_all := jr.master_curve(sw, sh).omega)).astype(int)
+    per_decade = info["prony"]["rms_log_per_decade"]
+    assert sorted(per_decade) == sorted(f"1e{d}" for d in np.unique(decade)) and w_all.size == pf.residuals.shape[0]
+    for d in np.unique(decade):
+        want = np.sqrt(np.mean(pf.residuals[decade == d] ** 2, axis=0))
+        np.testing.assert_allclose(per_decade[f"1e{d}"], want, rtol=1e-9)
 
 
 @pytest.mark.parametrize("geometry, load, unit", [("sphere", None, "N"), ("cylinder", 500.0, "N/m")])
