@@ -234,14 +234,15 @@ def prony_plateau_table(numbers: dict) -> str:
     the storage the loss implies and the synthetic check."""
     sec = numbers["prony_plateau"]
     ship = sec["plateau"]["shipped (21 sets)"]
-    lines = ["| fit (smooth default) | coldest-set storage | rms log storage | rms log loss | loss near the peak |",
-             "|---|---|---|---|---|"]
+    lines = ["| fit (smooth default) | coldest-set storage | rms log storage | rms log loss | loss near the peak "
+             "| mean log loss residual, tan delta < 0.02 / 0.02-0.1 / >= 0.1 |", "|---|---|---|---|---|---|"]
     for r in ship["rows"]:
         label = r["fit"].replace("phase_sigma", "`phase_sigma`")
         if r["fit"] == f"phase_sigma {sec['phase_sigma'] * 1e3:.2f} mrad":
             label += " (default, 0.1 deg)"
+        bands = " / ".join(f"{r['loss_bias_by_tan'][k]:+.2f}" for k in ("< 0.02", "0.02-0.1", ">= 0.1"))  # json sorts keys
         lines.append(f"| {label} | {_pct1(r['cold_bias'])} | {r['rms_storage']:.3f} | {r['rms_loss']:.3f} | "
-                     f"{r['rms_loss_peak']:.3f} |")
+                     f"{r['rms_loss_peak']:.3f} | {bands} |")
     kk = ship["kk_implied"]
     lines += ["", "Storage that the measured loss implies (Kramers-Kronig), coldest set: "
               f"{_pct1(kk['+0'])}; with the phase moved by -0.4, -0.2, -0.1, +0.1 deg: "
@@ -249,7 +250,7 @@ def prony_plateau_table(numbers: dict) -> str:
               f"synthetic curve: {sec['synthetic_kk_implied'] * 100:+.2f} %.", "",
               "| synthetic curve, errors | glassy storage, `phase_sigma=0` | default |", "|---|---|---|"]
     for r in sec["synthetic"]:
-        b = list(r["glassy_bias"].values())
+        b = [r["glassy_bias"]["0.00"], r["glassy_bias"][f"{sec['phase_sigma'] * 1e3:.2f}"]]
         lines.append(f"| 1 % on \\|G*\\|, 0.1 deg on delta, {r['errors']} | {b[0] * 100:+.2f} % | {b[1] * 100:+.2f} % |")
     lines.append(f"\n(`{sec['command']}`, {_machine(sec['measured'])}.)")
     return "\n".join(lines)
