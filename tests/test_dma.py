@@ -510,14 +510,17 @@ def test_loss_artifacts_of_the_shipped_file_are_its_100_hz_loss_values():
     and nothing else; the fit without them follows the rest of the master curve closer (loss
     rms 0.144 -> 0.128, storage 0.087 -> 0.072) with the same 33 terms. The glassy modulus
     barely moves (4.04 -> 3.98 GPa): what lifts it above the measured ~3.1 GPa is the glassy
-    loss itself, which by Kramers-Kronig asks for a steeper G' than measured."""
+    loss itself, which by Kramers-Kronig asks for a steeper G' than measured. (Measured weighing
+    storage and loss alike, ``phase_sigma=0``; the default's instrument weights already let the
+    glassy loss go.)"""
     sw = jr.read_dma_sweeps(DATA)
     m = jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15))
     flagged = jr.materials.loss_artifacts(m)
     np.testing.assert_array_equal(flagged, np.isclose(m.frequency, 2 * np.pi * 100.0, rtol=1e-6))
     weights = np.ones((len(m.omega), 2))
     weights[flagged, 1] = 0.0
-    kept, dropped = jr.fit_prony(m, smoothness=None), jr.fit_prony(m, smoothness=None, weights=weights)
+    kept = jr.fit_prony(m, smoothness=None, phase_sigma=0.0)
+    dropped = jr.fit_prony(m, smoothness=None, weights=weights, phase_sigma=0.0)
 
     def rms(fit, k, mask):
         return float(np.sqrt(np.mean(fit.residuals[mask, k] ** 2)))
@@ -685,8 +688,11 @@ def test_shipped_pipeline(shipped):
     assert np.all(np.diff(sh.log10_aT) < 0)  # hotter: faster
     lo, hi = wlf.ci95["C1"]
     assert lo < wlf.params["C1"] < hi and wlf.params["C2"] > sh.T_ref - sh.temperature[0]
-    # the Prony curve follows the measured master curve (its scatter: ~9 % in G', ~19 % in G'')
-    assert pf.rms < 0.2 and pf.n_terms >= 10
+    # the Prony curve follows the measured master curve: the storage within its scatter (~9 %;
+    # measured rms 0.032 with the default's instrument weights), the loss, which those weights let
+    # go on the plateaus where it contradicts the storage (docs/dma.md), to rms 0.29 (all: 0.207)
+    rms = np.sqrt(np.mean(pf.residuals**2, axis=0))
+    assert rms[0] < 0.09 and rms[1] < 0.35 and pf.rms < 0.25 and pf.n_terms >= 10
     # physical bounds: G_inf near the rubbery plateau, G_0 near the glassy one (E/3)
     assert 0.5 < float(pf.material.G_inf) / (256.5e6 / 3) < 1.5
     assert 0.8 < float(pf.material.glassy_modulus()) / (9228.6e6 / 3) < 1.6
@@ -999,7 +1005,8 @@ def test_smoothed_prony_follows_a_smooth_spectrum():
                                   g.imag * (1 + 0.01 * rng.standard_normal(w.size)), np.zeros(w.size, int), 293.15)
     x = np.logspace(-3, 7, 401)
     gt = np.asarray(jr.complex_modulus(true, x))
-    smooth, plain = jr.fit_prony(mc, smoothness=1.0), jr.fit_prony(mc, smoothness=None)
+    # the sample's noise is 1 % on G' and on G'' apiece, not a phase error: weighted alike
+    smooth, plain = jr.fit_prony(mc, smoothness=1.0, phase_sigma=0.0), jr.fit_prony(mc, smoothness=None, phase_sigma=0.0)
     err = {k: np.max(np.abs(np.asarray(jr.complex_modulus(f.material, x)).imag / gt.imag - 1))
            for k, f in (("smooth", smooth), ("plain", plain))}
     assert err["smooth"] < 0.01 and err["plain"] > 0.03, err

@@ -65,8 +65,8 @@ class PronyFit:
             curve's points, shape ``(n_points, 2)`` (natural log: relative errors).
         rms: rms of ``residuals`` (storage and loss together) over the values fitted [-].
         n_terms: number of terms kept (non-zero moduli).
-        weights: the weights of the (storage, loss) residuals, ``(n_points, 2)``: the caller's
-            times :func:`instrument_weights` (0: left out).
+        weights: the caller's weights of the (storage, loss) residuals, ``(n_points, 2)`` (0: left
+            out; the fit multiplies them by :func:`instrument_weights`).
     """
 
     material: GeneralizedMaxwell
@@ -275,14 +275,12 @@ def fit_prony(master: MasterCurve, *, smoothness=SMOOTHNESS, n_terms=None, refin
     if wts.shape != (len(w), 2) or not np.all(np.isfinite(wts) & (wts >= 0)):
         raise ValueError(f"weights must be finite, >= 0, of shape ({len(w)}, 2) (storage, loss per point); got "
                          f"shape {wts.shape}")
-    wts = wts * instrument_weights(gs, gl, phase_sigma=phase_sigma, modulus_sigma=modulus_sigma)
     keep_pt = wts > 0
     logs_all = (np.log(w), np.log(gs), np.log(gl))
+    wfit = wts * instrument_weights(gs, gl, phase_sigma=phase_sigma, modulus_sigma=modulus_sigma)
     if len(w) > MAX_FIT_POINTS:  # long curves: fit the weighted bin means (residuals still at every point)
-        (lw, lgs, lgl), wfit = _binned(*logs_all, wts, MAX_FIT_POINTS)
+        (lw, lgs, lgl), wfit = _binned(*logs_all, wfit, MAX_FIT_POINTS)
         w, gs, gl = np.exp(lw), np.exp(lgs), np.exp(lgl)
-    else:
-        wfit = wts
     weight = np.concatenate([wfit[:, 0], wfit[:, 1]])
     if smoothness is not None:
         if not (math.isfinite(smoothness) and smoothness > 0):
