@@ -211,6 +211,79 @@ def default_grid_accuracy(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def _summary(path: Path) -> str:
+    """The first sentence of a script's docstring, on one line."""
+    import ast
+
+    doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+    first = " ".join(doc.split("\n\n")[0].split())
+    end = re.search(r"\.(\s+(?=[A-Z])|$)", first)  # a full stop before a capital or at the end
+    return first[:end.start() + 1] if end else first
+
+
+def scripts(numbers: dict) -> str:
+    """One line per benchmark script (``benchmarks/*.py`` without a leading underscore), from its
+    docstring; every script prints its own usage with ``--help``."""
+    folder = ROOT / "benchmarks"
+    rows = [f"| `{p.name}` | {_summary(p)} |" for p in sorted(folder.glob("*.py")) if not p.name.startswith("_")]
+    return "\n".join(["| script | what it measures |", "|---|---|", *rows])
+
+
+def _round1(x: float) -> str:
+    """A regime to one significant digit (the runs aim at 0.01, 0.1, ... and land within 0.2 %)."""
+    return f"{float(f'{x:.1g}'):g}"
+
+
+_EDGE_RUNS = {"f0.3": "SLS f = 0.3", "f1": "SLS f = 1", "f3": "SLS f = 3", "prony": "a 6-term Prony series"}
+
+
+def edge_smoothing(numbers: dict) -> str:
+    """Bias [%] of the smoothed edge at kappa and 2 kappa and of its extrapolation (the fitting
+    default) against the exact discrete contact on the default grid; the cylinder's errors against
+    the exact 2D solution; one line with the largest extrapolated bias of every other run."""
+    runs = numbers["edge_smoothing"]["runs"]
+    sphere, cylinder = runs["sphere-f1"], runs["cylinder-f1"]
+    k = sphere["kappa"]
+    zetas = [r["zeta"] for r in sphere["rows"]]
+    lines = [f"Written from `{sphere['command']}` ({_machine(sphere['measured'])}) and its `--geometry cylinder` run; "
+             "half-space, standard linear solid f = 1; bias of the reported dissipation form [%]:", "",
+             "| zeta | " + " | ".join(_round1(z) for z in zetas) + " |", "|---" * (len(zetas) + 1) + "|"]
+
+    def row(label, values, fmt="{:+.3f}", bold=False):
+        cells = [(f"**{fmt.format(v)}**" if bold else fmt.format(v)) if v is not None else "-" for v in values]
+        lines.append(f"| {f'**{label}**' if bold else label} | " + " | ".join(cells) + " |")
+
+    for name, run, unit in (("sphere", sphere, "cells per radius"), ("cylinder", cylinder, "cells per half-width")):
+        rs = run["rows"]
+        row(f"{name} {unit}", [r["cells"] for r in rs], "{:.0f}")
+        row(f"{name}, kappa {2 * run['kappa']:g}", [r["kappa2"] for r in rs], "{:+.2f}")
+        row(f"{name}, kappa {run['kappa']:g}", [r["kappa"] for r in rs], "{:+.2f}")
+        row(f"{name}, extrapolated (fit default)", [r["extrapolated"] for r in rs], bold=True)
+    row("cylinder: exact discrete vs the exact 2D solution", [r["exact_vs_2d"] for r in cylinder["rows"]], "{:+.2f}")
+    row("cylinder: extrapolated vs the exact 2D solution", [r["extrapolated_vs_2d"] for r in cylinder["rows"]],
+        "{:+.2f}")
+    others = []
+    for key in sorted(runs):
+        if key in ("sphere-f1", "cylinder-f1"):
+            continue
+        geometry, material = key.split("-", 1)
+        rs = runs[key]["rows"]
+        worst = max(rs, key=lambda r: abs(r["extrapolated"]))
+        span = f"zeta {_round1(min(r['zeta'] for r in rs))}-{_round1(max(r['zeta'] for r in rs))}"
+        others.append(f"{_EDGE_RUNS[material]} ({geometry}, {span}) {abs(worst['extrapolated']):.3f} % "
+                      f"(at zeta = {_round1(worst['zeta'])})")
+    flagged = {}
+    for key, run in runs.items():
+        for r in run["rows"]:
+            for name in set(r.get("results", [])) - {"successful"}:
+                flagged.setdefault(name, []).append(key)
+    note = "; ".join(f"`{name}` at {len(keys)} points (run {', '.join(sorted(set(keys)))}), by the exact and the "
+                     "smoothed model alike" for name, keys in flagged.items())
+    lines += ["", "Largest extrapolated bias of the other runs (same script, `--f` / `--prony` / `--geometry`): "
+              + "; ".join(others) + ". Points flagged not valid by the models: " + (note or "none") + "."]
+    return "\n".join(lines)
+
+
 #: generated block name -> renderer of numbers.json
 def _pct1(x):
     return f"{x * 100:+.1f} %"
@@ -266,6 +339,8 @@ BLOCKS = {
     "slowest-tests": slowest_tests,
     "forms-convergence": forms_convergence,
     "default-grid-accuracy": default_grid_accuracy,
+    "edge-smoothing": edge_smoothing,
+    "scripts": scripts,
 }
 
 #: files holding generated blocks
