@@ -1,5 +1,5 @@
-"""Loss-curve extrema and glassy-plateau bias of Prony fits to measured master curves
-(docs/dma.md, "Smooth Prony series" and "The glassy plateau"): the smoothed fits, and the
+"""Loss-curve extrema and glassy-plateau bias of Prony fits to the shipped master curve and a
+synthetic one (docs/dma.md, "Smooth Prony series" and "The glassy plateau"): the smoothed fits, and the
 instrument error model of the joint storage/loss fit (``phase_sigma``) against a storage-only fit
 and the storage that the measured loss implies by Kramers-Kronig.
 
