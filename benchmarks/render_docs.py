@@ -286,7 +286,53 @@ def edge_smoothing(numbers: dict) -> str:
 
 
 #: generated block name -> renderer of numbers.json
+def _pct1(x):
+    return f"{x * 100:+.1f} %"
+
+
+def prony_smoothness_table(numbers: dict) -> str:
+    """docs/dma.md: terms, rms, loss extrema and plateau bias of the smoothed fits."""
+    sec = numbers["prony_plateau"]
+    lines = ["| fit | terms | rms log residual | loss extrema | coldest-set storage |", "|---|---|---|---|---|"]
+    for r in sec["smoothness"]:
+        lam = r["smoothness"]
+        label = ("`smoothness=None` (fewest terms)" if lam is None else
+                 f"`smoothness={lam:g}`" + (" (default)" if lam == 3.0 else ""))
+        lines.append(f"| {label} | {r['terms']} | {r['rms']:.4f} | {r['loss_extrema']} | {_pct1(r['cold_bias'])} |")
+    lines.append(f"\n(`{sec['command']}`, {_machine(sec['measured'])}.)")
+    return "\n".join(lines)
+
+
+def prony_plateau_table(numbers: dict) -> str:
+    """docs/dma.md: the instrument error model against the glassy plateau, the loss near its peak,
+    the storage the loss implies and the synthetic check."""
+    sec = numbers["prony_plateau"]
+    ship = sec["plateau"]["shipped (21 sets)"]
+    lines = ["| fit (smooth default) | coldest-set storage | rms log storage | rms log loss | loss near the peak "
+             "| mean log loss residual, tan delta < 0.02 / 0.02-0.1 / >= 0.1 |", "|---|---|---|---|---|---|"]
+    for r in ship["rows"]:
+        label = r["fit"].replace("phase_sigma", "`phase_sigma`")
+        if r["fit"] == f"phase_sigma {sec['phase_sigma'] * 1e3:.2f} mrad":
+            label += " (default, 0.1 deg)"
+        bands = " / ".join(f"{r['loss_bias_by_tan'][k]:+.2f}" for k in ("< 0.02", "0.02-0.1", ">= 0.1"))  # json sorts keys
+        lines.append(f"| {label} | {_pct1(r['cold_bias'])} | {r['rms_storage']:.3f} | {r['rms_loss']:.3f} | "
+                     f"{r['rms_loss_peak']:.3f} | {bands} |")
+    kk = ship["kk_implied"]
+    lines += ["", "Storage that the measured loss implies (Kramers-Kronig), coldest set: "
+              f"{_pct1(kk['+0'])}; with the phase moved by -0.4, -0.2, -0.1, +0.1 deg: "
+              f"{', '.join(_pct1(kk[k]) for k in ('-4', '-2', '-1', '+1'))}. The same estimate on the exact "
+              f"synthetic curve: {sec['synthetic_kk_implied'] * 100:+.2f} %.", "",
+              "| synthetic curve, errors | glassy storage, `phase_sigma=0` | default |", "|---|---|---|"]
+    for r in sec["synthetic"]:
+        b = [r["glassy_bias"]["0.00"], r["glassy_bias"][f"{sec['phase_sigma'] * 1e3:.2f}"]]
+        lines.append(f"| 1 % on \\|G*\\|, 0.1 deg on delta, {r['errors']} | {b[0] * 100:+.2f} % | {b[1] * 100:+.2f} % |")
+    lines.append(f"\n(`{sec['command']}`, {_machine(sec['measured'])}.)")
+    return "\n".join(lines)
+
+
 BLOCKS = {
+    "prony-smoothness": prony_smoothness_table,
+    "prony-plateau": prony_plateau_table,
     "methods-table": methods_table,
     "default-method-table": default_method_table,
     "first-use": first_use,
@@ -299,7 +345,7 @@ BLOCKS = {
 }
 
 #: files holding generated blocks
-FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md"]
+FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md", ROOT / "docs" / "dma.md"]
 
 _BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(\n<!-- /generated: \2 -->)", re.S)
 
