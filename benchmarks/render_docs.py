@@ -271,7 +271,8 @@ def edge_smoothing(numbers: dict) -> str:
         rs = runs[key]["rows"]
         worst = max(rs, key=lambda r: abs(r["extrapolated"]))
         span = f"zeta {_round1(min(r['zeta'] for r in rs))}-{_round1(max(r['zeta'] for r in rs))}"
-        others.append(f"{_EDGE_RUNS[material]} ({geometry}, {span}) {abs(worst['extrapolated']):.3f} % "
+        label = _EDGE_RUNS.get(material) or f"SLS f = {material.removeprefix('f')}"
+        others.append(f"{label} ({geometry}, {span}) {abs(worst['extrapolated']):.3f} % "
                       f"(at zeta = {_round1(worst['zeta'])})")
     flagged = {}
     for key, run in runs.items():
@@ -285,7 +286,6 @@ def edge_smoothing(numbers: dict) -> str:
     return "\n".join(lines)
 
 
-#: generated block name -> renderer of numbers.json
 def _pct1(x):
     return f"{x * 100:+.1f} %"
 
@@ -333,6 +333,7 @@ def prony_plateau_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+#: generated block name -> renderer of numbers.json
 BLOCKS = {
     "prony-smoothness": prony_smoothness_table,
     "prony-plateau": prony_plateau_table,
