@@ -6,9 +6,11 @@ the EXACT discrete contact at twice the default cells per radius, 60 points, 2 %
 G0 = 3 MPa, tau = 0.25 s, f = 1). Fit: ``jr.fit_material`` with every default (the method is
 ``default_method(geometry, fit=True)``: the smoothed edge extrapolated to kappa -> 0 on a grid
 the fit resolves itself), sigma from the file, ``absolute_sigma=True``, start G0 = 2 MPa,
-tau = 0.35 s, f = 0.7. ``--draws N``: N further fits of the noise-free values (``sigma / 0.02``)
-with fresh noise (numpy default_rng(1000 + i)); reports how many of the 3N intervals hold the
-truth, with the binomial 99 % acceptance range for honest 95 % intervals.
+tau = 0.35 s, f = 0.7 (the intervals: profile likelihood, the default for rolling data alone).
+``--draws N``: N further fits of the noise-free values (``sigma / 0.02``) with fresh noise (numpy
+default_rng(1000 + i)); reports how many of the 3N intervals hold the truth, with the binomial
+99 % acceptance range for honest 95 % intervals. ``--diagnose``: per draw, the cost at the fit and
+at the truth on the fit's own grid, and the truth's distance in the linearised metric.
 
 Run: ``python benchmarks/fit_coverage.py [--geometry sphere|cylinder] [--draws 30] [--jobs 2] [--diagnose]
 [--record]``
