@@ -110,8 +110,9 @@ def test_fit_material_default_resolves_its_grid_and_regrids_once():
     start = jr.StandardLinearSolid(1.5e6, 0.25, 1.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # G0-tau correlation (expected)
+        # the grid logic under test; linearised intervals (the profiles are test_fit_unbiased.py's)
         fit = fit_material(RollingData(V, P, y), initial=start, layer=HALF, radius=R, geometry="cylinder",
-                           free=("G0", "tau"))
+                           free=("G0", "tau"), intervals="linear")
     assert isinstance(fit.method, jr.Full) and fit.method.edge_smoothing == FIT_EDGE_SMOOTHING
     assert fit.method.edge_extrapolation
     assert isinstance(fit.method.grid, jr.FixedGrid)
