@@ -31,6 +31,10 @@ def machine() -> dict:
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                                 cwd=NUMBERS.parent).stdout.strip()
+        # a tracked file changed since that commit (numbers.json itself aside): not what it measured
+        changed = subprocess.run(["git", "status", "--porcelain", "-uno", "--", ".", ":!benchmarks/numbers.json"],
+                                 capture_output=True, text=True, cwd=NUMBERS.parent.parent).stdout.strip()
+        commit += "+dirty" if commit and changed else ""
     except OSError:
         commit = ""
     import jax

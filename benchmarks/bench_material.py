@@ -4,11 +4,15 @@ importable (the ``peer`` extra): its shift factors, WLF fit, master curve and Pr
 the optimisation its own test of this file uses (``tests/test_dma.py::test_peer_pyvisco``).
 
 Each step is timed after one warm-up call (its compilation reported apart), median of
-``--repeat`` runs. Run: ``python benchmarks/bench_material.py [--repeat 5]``.
+``--repeat`` runs. ``--rows N`` times jaxroll on a file of N rows instead: each of the shipped
+file's 21 sweeps resampled at N/21 log-spaced frequencies over its 0.1-100 Hz (moduli
+interpolated log-log), written to a temporary CSV. Run:
+``python benchmarks/bench_material.py [--repeat 5] [--rows 100000]``.
 """
 
 import argparse
 import statistics
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -20,11 +24,28 @@ import jaxroll as jr
 DATA = Path(__file__).resolve().parents[1] / "jaxroll" / "datasets" / "pyvisco_freq_user_raw.csv"
 
 
-def steps():
-    """``{step: seconds}`` of one pass of the pipeline."""
+def resampled(n_rows, folder):
+    """The shipped file with every sweep resampled at ``n_rows / 21`` frequencies (see the module
+    docstring); returns its path."""
+    raw = np.genfromtxt(DATA, delimiter=",", skip_header=2)
+    per = n_rows // 21
+    rows = []
+    for s in np.unique(raw[:, 4]):
+        d = raw[raw[:, 4] == s]
+        f = np.logspace(np.log10(d[:, 0].min()), np.log10(d[:, 0].max()), per)
+        e1, e2 = (np.exp(np.interp(np.log(f), np.log(d[:, 0]), np.log(d[:, k]))) for k in (1, 2))
+        rows.append(np.column_stack([f, e1, e2, np.full(per, d[:, 3].mean()), np.full(per, s)]))
+    path = Path(folder) / f"resampled_{n_rows}.csv"
+    np.savetxt(path, np.vstack(rows), delimiter=",", fmt="%.10g", header="f,E_stor,E_loss,T,Set\nHz,MPa,MPa,C,-",
+               comments="")
+    return path
+
+
+def steps(path=DATA):
+    """``{step: seconds}`` of one pass of the pipeline on ``path``."""
     out = {}
     t = time.perf_counter()
-    sw = jr.read_dma_sweeps(DATA)
+    sw = jr.read_dma_sweeps(path)
     out["read"] = time.perf_counter() - t
     t = time.perf_counter()
     sh = jr.fit_shift_factors(sw, T_ref=298.15)
@@ -74,8 +95,18 @@ def report(label, runs):
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--rows", type=int, default=None, help="time a resampled file of this many rows instead")
     args = ap.parse_args()
     warnings.simplefilter("ignore", jr.DataWarning)
+    if args.rows:
+        with tempfile.TemporaryDirectory() as folder:
+            path = resampled(args.rows, folder)
+            t = time.perf_counter()
+            _, pf = steps(path)
+            print(f"{args.rows} rows, first pass (with compilation): {time.perf_counter() - t:.2f} s; Prony "
+                  f"{pf.n_terms} terms, rms {pf.rms:.4f}")
+            report(f"jaxroll, {args.rows} rows", [steps(path)[0] for _ in range(args.repeat)])
+        return
     t = time.perf_counter()
     first, pf = steps()
     print(f"first pass (with compilation): {time.perf_counter() - t:.2f} s; Prony {pf.n_terms} terms, rms {pf.rms:.4f}")

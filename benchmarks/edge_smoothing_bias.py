@@ -13,15 +13,20 @@ the errors of the exact discrete contact and of the extrapolated model against t
 solution (``jr.reference.exact_cylinder_halfspace``). ``--fine``: also the exact discrete contact
 at 2x and 3x the default cells per radius (a convergence study; the column "extrap vs 3x" then
 compares the extrapolated model at the default grid with the 3x grid).
-Run: ``python benchmarks/edge_smoothing_bias.py [--geometry sphere] [--f 1] [--prony] [--fine]``.
+``--record`` stores the rows in benchmarks/numbers.json (section ``edge_smoothing``, one run per
+geometry and material, the others kept), from which ``benchmarks/render_docs.py`` writes the table
+of docs/validation.md.
+Run: ``python benchmarks/edge_smoothing_bias.py [--geometry sphere] [--f 1] [--prony] [--fine] [--record]``.
 """
 
 import argparse
+import sys
 import warnings
 
 import jax.numpy as jnp
 import numpy as np
 
+import _numbers
 import jaxroll as jr
 from jaxroll.methods import FIT_EDGE_SMOOTHING
 
@@ -67,6 +72,7 @@ def main():
     ap.add_argument("--f", type=float, default=1.0)
     ap.add_argument("--prony", action="store_true")
     ap.add_argument("--fine", action="store_true")
+    ap.add_argument("--record", action="store_true", help="store the rows in benchmarks/numbers.json")
     args = ap.parse_args()
     g, P = args.geometry, LOAD[args.geometry]
     mat = PRONY if args.prony else jr.StandardLinearSolid(G0=3e6, tau=0.25, f=args.f)
@@ -80,11 +86,25 @@ def main():
           f"discrete contact on the default grid unless named\n{head}")
     # the Prony rows: speeds 1e-5..1 m/s, each labelled with its regime zeta (jr.grids.regime)
     speeds = (np.logspace(-5, 0, 6) if args.prony else [float(x) * a0 / 0.25 for x in args.zetas.split(",")])
+    rows, exact_2d = [], g == "cylinder" and not args.prony
     for V in speeds:
         z = float(jr.grids.regime(mat, V, a0)[0])
         out, codes = row(mat, g, P, V, args.kappa, args.fine, not args.prony)
         print(f"{z:<6g} {out[0]:5.1f} " + " ".join(f"{x:+7.3f}" for x in out[1:]) +
               ("" if codes == (0, 0) else f"  (result codes {codes})"), flush=True)
+        rows.append({"zeta": z, "V": float(V), "cells": out[0], "kappa": out[1], "kappa2": out[2], "extrapolated": out[3],
+                     "exact_vs_2d": out[4] if exact_2d else None, "extrapolated_vs_2d": out[5] if exact_2d else None,
+                     "valid": codes == (0, 0), "results": [jr.RESULTS.names[c] for c in codes]})
+    if args.record:
+        record_run(f"{g}-{'prony' if args.prony else f'f{args.f:g}'}", args, rows)
+
+
+def record_run(key, args, rows):
+    """Store this run under ``key`` in numbers.json's ``edge_smoothing`` section (other runs kept)."""
+    runs = _numbers.load().get("edge_smoothing", {}).get("runs", {})
+    runs[key] = {"measured": _numbers.machine(), "command": "python benchmarks/edge_smoothing_bias.py " + " ".join(sys.argv[1:]),
+                 "kappa": args.kappa, "rows": rows}
+    _numbers.record("edge_smoothing", {"runs": runs})
 
 
 if __name__ == "__main__":

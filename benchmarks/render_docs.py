@@ -144,7 +144,8 @@ def slowest_tests(numbers: dict) -> str:
 
 
 #: resistance_forms.py's material tags, as the docs name them
-_FORMS_MATERIALS = {"s05": "SLS f = 0.5", "s1": "SLS f = 1", "s2": "SLS f = 2", "s3": "SLS f = 3",
+_FORMS_MATERIALS = {"s01": "SLS f = 0.1", "s03": "SLS f = 0.3", "s05": "SLS f = 0.5", "s1": "SLS f = 1",
+                    "s2": "SLS f = 2", "s3": "SLS f = 3",
                     "pr": "Prony, 20 decades", "st": "Prony, 12 decades"}
 
 
@@ -211,8 +212,127 @@ def default_grid_accuracy(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def _summary(path: Path) -> str:
+    """The first sentence of a script's docstring, on one line."""
+    import ast
+
+    doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+    first = " ".join(doc.split("\n\n")[0].split())
+    end = re.search(r"\.(\s+(?=[A-Z])|$)", first)  # a full stop before a capital or at the end
+    return first[:end.start() + 1] if end else first
+
+
+def scripts(numbers: dict) -> str:
+    """One line per benchmark script (``benchmarks/*.py`` without a leading underscore), from its
+    docstring; every script prints its own usage with ``--help``."""
+    folder = ROOT / "benchmarks"
+    rows = [f"| `{p.name}` | {_summary(p)} |" for p in sorted(folder.glob("*.py")) if not p.name.startswith("_")]
+    return "\n".join(["| script | what it measures |", "|---|---|", *rows])
+
+
+def _round1(x: float) -> str:
+    """A regime to one significant digit (the runs aim at 0.01, 0.1, ... and land within 0.2 %)."""
+    return f"{float(f'{x:.1g}'):g}"
+
+
+_EDGE_RUNS = {"f0.3": "SLS f = 0.3", "f1": "SLS f = 1", "f3": "SLS f = 3", "prony": "a 6-term Prony series"}
+
+
+def edge_smoothing(numbers: dict) -> str:
+    """Bias [%] of the smoothed edge at kappa and 2 kappa and of its extrapolation (the fitting
+    default) against the exact discrete contact on the default grid; the cylinder's errors against
+    the exact 2D solution; one line with the largest extrapolated bias of every other run."""
+    runs = numbers["edge_smoothing"]["runs"]
+    sphere, cylinder = runs["sphere-f1"], runs["cylinder-f1"]
+    k = sphere["kappa"]
+    zetas = [r["zeta"] for r in sphere["rows"]]
+    lines = [f"Written from `{sphere['command']}` ({_machine(sphere['measured'])}) and its `--geometry cylinder` run; "
+             "half-space, standard linear solid f = 1; bias of the reported dissipation form [%]:", "",
+             "| zeta | " + " | ".join(_round1(z) for z in zetas) + " |", "|---" * (len(zetas) + 1) + "|"]
+
+    def row(label, values, fmt="{:+.3f}", bold=False):
+        cells = [(f"**{fmt.format(v)}**" if bold else fmt.format(v)) if v is not None else "-" for v in values]
+        lines.append(f"| {f'**{label}**' if bold else label} | " + " | ".join(cells) + " |")
+
+    for name, run, unit in (("sphere", sphere, "cells per radius"), ("cylinder", cylinder, "cells per half-width")):
+        rs = run["rows"]
+        row(f"{name} {unit}", [r["cells"] for r in rs], "{:.0f}")
+        row(f"{name}, kappa {2 * run['kappa']:g}", [r["kappa2"] for r in rs], "{:+.2f}")
+        row(f"{name}, kappa {run['kappa']:g}", [r["kappa"] for r in rs], "{:+.2f}")
+        row(f"{name}, extrapolated (fit default)", [r["extrapolated"] for r in rs], bold=True)
+    row("cylinder: exact discrete vs the exact 2D solution", [r["exact_vs_2d"] for r in cylinder["rows"]], "{:+.2f}")
+    row("cylinder: extrapolated vs the exact 2D solution", [r["extrapolated_vs_2d"] for r in cylinder["rows"]],
+        "{:+.2f}")
+    others = []
+    for key in sorted(runs):
+        if key in ("sphere-f1", "cylinder-f1"):
+            continue
+        geometry, material = key.split("-", 1)
+        rs = runs[key]["rows"]
+        worst = max(rs, key=lambda r: abs(r["extrapolated"]))
+        span = f"zeta {_round1(min(r['zeta'] for r in rs))}-{_round1(max(r['zeta'] for r in rs))}"
+        others.append(f"{_EDGE_RUNS[material]} ({geometry}, {span}) {abs(worst['extrapolated']):.3f} % "
+                      f"(at zeta = {_round1(worst['zeta'])})")
+    flagged = {}
+    for key, run in runs.items():
+        for r in run["rows"]:
+            for name in set(r.get("results", [])) - {"successful"}:
+                flagged.setdefault(name, []).append(key)
+    note = "; ".join(f"`{name}` at {len(keys)} points (run {', '.join(sorted(set(keys)))}), by the exact and the "
+                     "smoothed model alike" for name, keys in flagged.items())
+    lines += ["", "Largest extrapolated bias of the other runs (same script, `--f` / `--prony` / `--geometry`): "
+              + "; ".join(others) + ". Points flagged not valid by the models: " + (note or "none") + "."]
+    return "\n".join(lines)
+
+
 #: generated block name -> renderer of numbers.json
+def _pct1(x):
+    return f"{x * 100:+.1f} %"
+
+
+def prony_smoothness_table(numbers: dict) -> str:
+    """docs/dma.md: terms, rms, loss extrema and plateau bias of the smoothed fits."""
+    sec = numbers["prony_plateau"]
+    lines = ["| fit | terms | rms log residual | loss extrema | coldest-set storage |", "|---|---|---|---|---|"]
+    for r in sec["smoothness"]:
+        lam = r["smoothness"]
+        label = ("`smoothness=None` (fewest terms)" if lam is None else
+                 f"`smoothness={lam:g}`" + (" (default)" if lam == 3.0 else ""))
+        lines.append(f"| {label} | {r['terms']} | {r['rms']:.4f} | {r['loss_extrema']} | {_pct1(r['cold_bias'])} |")
+    lines.append(f"\n(`{sec['command']}`, {_machine(sec['measured'])}.)")
+    return "\n".join(lines)
+
+
+def prony_plateau_table(numbers: dict) -> str:
+    """docs/dma.md: the instrument error model against the glassy plateau, the loss near its peak,
+    the storage the loss implies and the synthetic check."""
+    sec = numbers["prony_plateau"]
+    ship = sec["plateau"]["shipped (21 sets)"]
+    lines = ["| fit (smooth default) | coldest-set storage | rms log storage | rms log loss | loss near the peak "
+             "| mean log loss residual, tan delta < 0.02 / 0.02-0.1 / >= 0.1 |", "|---|---|---|---|---|---|"]
+    for r in ship["rows"]:
+        label = r["fit"].replace("phase_sigma", "`phase_sigma`")
+        if r["fit"] == f"phase_sigma {sec['phase_sigma'] * 1e3:.2f} mrad":
+            label += " (default, 0.1 deg)"
+        bands = " / ".join(f"{r['loss_bias_by_tan'][k]:+.2f}" for k in ("< 0.02", "0.02-0.1", ">= 0.1"))  # json sorts keys
+        lines.append(f"| {label} | {_pct1(r['cold_bias'])} | {r['rms_storage']:.3f} | {r['rms_loss']:.3f} | "
+                     f"{r['rms_loss_peak']:.3f} | {bands} |")
+    kk = ship["kk_implied"]
+    lines += ["", "Storage that the measured loss implies (Kramers-Kronig), coldest set: "
+              f"{_pct1(kk['+0'])}; with the phase moved by -0.4, -0.2, -0.1, +0.1 deg: "
+              f"{', '.join(_pct1(kk[k]) for k in ('-4', '-2', '-1', '+1'))}. The same estimate on the exact "
+              f"synthetic curve: {sec['synthetic_kk_implied'] * 100:+.2f} %.", "",
+              "| synthetic curve, errors | glassy storage, `phase_sigma=0` | default |", "|---|---|---|"]
+    for r in sec["synthetic"]:
+        b = [r["glassy_bias"]["0.00"], r["glassy_bias"][f"{sec['phase_sigma'] * 1e3:.2f}"]]
+        lines.append(f"| 1 % on \\|G*\\|, 0.1 deg on delta, {r['errors']} | {b[0] * 100:+.2f} % | {b[1] * 100:+.2f} % |")
+    lines.append(f"\n(`{sec['command']}`, {_machine(sec['measured'])}.)")
+    return "\n".join(lines)
+
+
 BLOCKS = {
+    "prony-smoothness": prony_smoothness_table,
+    "prony-plateau": prony_plateau_table,
     "methods-table": methods_table,
     "default-method-table": default_method_table,
     "first-use": first_use,
@@ -220,10 +340,12 @@ BLOCKS = {
     "slowest-tests": slowest_tests,
     "forms-convergence": forms_convergence,
     "default-grid-accuracy": default_grid_accuracy,
+    "edge-smoothing": edge_smoothing,
+    "scripts": scripts,
 }
 
 #: files holding generated blocks
-FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md"]
+FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md", ROOT / "docs" / "dma.md"]
 
 _BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(\n<!-- /generated: \2 -->)", re.S)
 

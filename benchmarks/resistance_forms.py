@@ -9,7 +9,8 @@ The full models report the dissipation form ``-int p du/dx`` as ``value`` (also
   cylinder 12..400), CSV lines ``geometry,material,zeta_or_-speed,speed,cells,M,D,result,
   contact_radius,seconds``. Materials: standard linear solids G0 = 3 MPa, tau = 0.25 s, f = 1
   (``s1``) and 3 (``s3``) at zeta = V tau/a0, and a 21-term Prony series (``pr``, G_inf = 3 MPa,
-  G_i = 1.5 MPa 10^(-k/10), tau_i = 10^k s, k = -10..10: 20 decades) at 1e-6..1e3 m/s. The
+  G_i = 1.5 MPa 10^(-k/10), tau_i = 10^k s, k = -10..10: 20 decades) at 1e-6..1e3 m/s;
+  and f = 0.1 and 0.3 (``s01``, ``s03``) at zeta = 0.05..0.3. The
   tables of :mod:`jaxroll.grids` (``SPHERE_ERROR``, ``LINE_ERROR``) are this study's envelope.
 * ``--analyse FILE [FILE...] [--record]``: the study's errors [%] M / D, against the exact solution (cylinder, SLS)
   or against the dissipation form extrapolated to zero cell size from >= 20 cells (a fit
@@ -47,7 +48,10 @@ _K2 = np.arange(-8, 5.0)
 #: off the calibration (the validation set): f = 0.5 and 2, a 12-decade Prony series
 STEEP = jr.GeneralizedMaxwell(G_inf=2e6, G=4e6 * 10 ** (-0.15 * (_K2 + 8)), tau=10.0 ** _K2)
 MATERIALS = {"s1": S1, "s3": S3, "pr": PRONY, "s05": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=0.5),
-             "s2": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=2.0), "st": STEEP}
+             "s2": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=2.0), "st": STEEP,
+             "s01": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=0.1), "s03": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=0.3)}
+#: weakly dispersive solids (f = 0.1, 0.3) err most just below the loss peak
+LOW_F_ZETAS = [0.05, 0.1, 0.17, 0.3]
 LOAD = {"sphere": 100.0, "cylinder": 1e4}
 ZETAS = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 10.0, 100.0, 1000.0]
 PRONY_SPEEDS = [1e-6, 1e-3, 1.0, 1e3]
@@ -87,6 +91,7 @@ def study_rows(validation=False):
         else:
             cases = [("s1", z) for z in ZETAS] + [("s3", z) for z in [1e-3, 1e-2, 0.1, 1.0, 100.0]]
             cases += [("pr", -v) for v in PRONY_SPEEDS]
+            cases += [(tag, z) for tag in ("s01", "s03") for z in LOW_F_ZETAS]
         for tag, z in cases:
             extra = [64] if geometry == "sphere" and 0 < z <= 2e-2 else []
             out += [(geometry, tag, z, c, LOAD[geometry]) for c in cells + extra]

@@ -4,8 +4,17 @@ viscoelastic layers of finite thickness.
 Importing jaxroll enables JAX's float64 mode (see ``jaxroll._numerics``) and JAX's persistent
 compilation cache in the user's cache directory, ``~/.cache/jaxroll/jax`` (environment variable
 ``JAXROLL_COMPILATION_CACHE``: ``0`` switches it off, a path moves it; see
-``jaxroll._compilation_cache``).
+``jaxroll._compilation_cache``). Imported before JAX, it also sets ``TF_CPP_MIN_LOG_LEVEL=3`` when
+that is unset: XLA's C++ log would otherwise print three false "could lead to execution errors
+such as SIGILL" lines for every program loaded from that cache on some x86 processors (JAX
+itself sets level 1; ``TF_CPP_MIN_LOG_LEVEL=0`` shows everything).
 """
+
+import os as _os
+import sys as _sys
+
+if "jax" not in _sys.modules:  # the level is read once, when JAX loads XLA
+    _os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
 
 from . import _numerics  # noqa: F401  (enables float64 first)
 from . import _compilation_cache

@@ -22,8 +22,9 @@ later process loads it instead of compiling it again; tracing the Python code st
 * On some x86 processors XLA logs three lines for each program it loads from the cache
   ("Loading XLA:CPU AOT result. Target machine feature +prefer-no-gather is not supported on
   the host machine"): its check counts LLVM tuning preferences as processor features. The
-  program was compiled on this processor type (the subdirectory above); setting
-  ``TF_CPP_MIN_LOG_LEVEL=3`` before JAX is imported hides the lines.
+  program was compiled on this processor type (the subdirectory above). ``import jaxroll``
+  before JAX sets ``TF_CPP_MIN_LOG_LEVEL=3`` when it is unset, which hides the lines; a process
+  that imports JAX first sets it itself.
 
 Only programs without host callbacks can be stored (a JAX rule): the front doors keep theirs
 free of callbacks when the inputs are concrete (see :mod:`jaxroll.rolling`).

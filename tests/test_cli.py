@@ -368,6 +368,14 @@ def test_material_writes_the_library_fits_and_every_export(material_dir, capsys)
         assert (out / name).stat().st_size > 0
     report = (out / "material_report.txt").read_text()
     assert f"Prony: {pf.n_terms} terms" in report and "WLF: C1 = " in report
+    # the residual per decade of reduced omega (issue 28, item 5): the library fit's residuals, binned
+    assert "Prony rms log residual per decade" in report
+    decade = np.floor(np.log10(w_all := jr.master_curve(sw, sh).omega)).astype(int)
+    per_decade = info["prony"]["rms_log_per_decade"]
+    assert sorted(per_decade) == sorted(f"1e{d}" for d in np.unique(decade)) and w_all.size == pf.residuals.shape[0]
+    for d in np.unique(decade):
+        want = np.sqrt(np.mean(pf.residuals[decade == d] ** 2, axis=0))
+        np.testing.assert_allclose(per_decade[f"1e{d}"], want, rtol=1e-9)
 
 
 @pytest.mark.parametrize("geometry, load, unit", [("sphere", None, "N"), ("cylinder", 500.0, "N/m")])
@@ -516,15 +524,19 @@ def test_every_option_has_help_and_the_texts_render_cleanly():
 
 
 def test_material_prony_smoothness_is_the_library_fit(material_dir, tmp_path):
-    """--prony-smoothness 1 writes the library's smoothed fit (3 times per decade) and records it."""
+    """--prony-smoothness 1 --phase-sigma 0.003 --modulus-sigma 0.02 writes the library's smoothed
+    fit (3 times per decade) under that instrument error model and records them."""
     data, _ = material_dir
-    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--out", str(tmp_path)]) == 0
+    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--phase-sigma", "0.003",
+                 "--modulus-sigma", "0.02", "--out", str(tmp_path)]) == 0
     sw = jr.read_dma_sweeps(data)
-    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0).material
+    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0, phase_sigma=0.003,
+                        modulus_sigma=0.02).material
     mat, _ = jr.load_material(tmp_path / "material.json")
     np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
     np.testing.assert_allclose(np.asarray(mat.tau), np.asarray(want.tau), rtol=1e-12)
-    assert json.loads((tmp_path / "material.json").read_text())["info"]["prony"]["smoothness"] == 1.0
+    prony = json.loads((tmp_path / "material.json").read_text())["info"]["prony"]
+    assert (prony["smoothness"], prony["phase_sigma"], prony["modulus_sigma"]) == (1.0, 0.003, 0.02)
 
 
 def test_conveyor_trough_rows_match_the_library(material_dir, tmp_path, capsys):

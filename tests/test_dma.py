@@ -510,14 +510,17 @@ def test_loss_artifacts_of_the_shipped_file_are_its_100_hz_loss_values():
     and nothing else; the fit without them follows the rest of the master curve closer (loss
     rms 0.144 -> 0.128, storage 0.087 -> 0.072) with the same 33 terms. The glassy modulus
     barely moves (4.04 -> 3.98 GPa): what lifts it above the measured ~3.1 GPa is the glassy
-    loss itself, which by Kramers-Kronig asks for a steeper G' than measured."""
+    loss itself, which by Kramers-Kronig asks for a steeper G' than measured. (Measured weighing
+    storage and loss alike, ``phase_sigma=0``; the default's instrument weights already let the
+    glassy loss go.)"""
     sw = jr.read_dma_sweeps(DATA)
     m = jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15))
     flagged = jr.materials.loss_artifacts(m)
     np.testing.assert_array_equal(flagged, np.isclose(m.frequency, 2 * np.pi * 100.0, rtol=1e-6))
     weights = np.ones((len(m.omega), 2))
     weights[flagged, 1] = 0.0
-    kept, dropped = jr.fit_prony(m, smoothness=None), jr.fit_prony(m, smoothness=None, weights=weights)
+    kept = jr.fit_prony(m, smoothness=None, phase_sigma=0.0)
+    dropped = jr.fit_prony(m, smoothness=None, weights=weights, phase_sigma=0.0)
 
     def rms(fit, k, mask):
         return float(np.sqrt(np.mean(fit.residuals[mask, k] ** 2)))
@@ -685,8 +688,11 @@ def test_shipped_pipeline(shipped):
     assert np.all(np.diff(sh.log10_aT) < 0)  # hotter: faster
     lo, hi = wlf.ci95["C1"]
     assert lo < wlf.params["C1"] < hi and wlf.params["C2"] > sh.T_ref - sh.temperature[0]
-    # the Prony curve follows the measured master curve (its scatter: ~9 % in G', ~19 % in G'')
-    assert pf.rms < 0.2 and pf.n_terms >= 10
+    # the Prony curve follows the measured master curve: the storage within its scatter (~9 %;
+    # measured rms 0.032 with the default's instrument weights), the loss, which those weights let
+    # go on the plateaus where it contradicts the storage (docs/dma.md), to rms 0.29 (all: 0.207)
+    rms = np.sqrt(np.mean(pf.residuals**2, axis=0))
+    assert rms[0] < 0.09 and rms[1] < 0.35 and pf.rms < 0.25 and pf.n_terms >= 10
     # physical bounds: G_inf near the rubbery plateau, G_0 near the glassy one (E/3)
     assert 0.5 < float(pf.material.G_inf) / (256.5e6 / 3) < 1.5
     assert 0.8 < float(pf.material.glassy_modulus()) / (9228.6e6 / 3) < 1.6
@@ -999,7 +1005,8 @@ def test_smoothed_prony_follows_a_smooth_spectrum():
                                   g.imag * (1 + 0.01 * rng.standard_normal(w.size)), np.zeros(w.size, int), 293.15)
     x = np.logspace(-3, 7, 401)
     gt = np.asarray(jr.complex_modulus(true, x))
-    smooth, plain = jr.fit_prony(mc, smoothness=1.0), jr.fit_prony(mc, smoothness=None)
+    # the sample's noise is 1 % on G' and on G'' apiece, not a phase error: weighted alike
+    smooth, plain = jr.fit_prony(mc, smoothness=1.0, phase_sigma=0.0), jr.fit_prony(mc, smoothness=None, phase_sigma=0.0)
     err = {k: np.max(np.abs(np.asarray(jr.complex_modulus(f.material, x)).imag / gt.imag - 1))
            for k, f in (("smooth", smooth), ("plain", plain))}
     assert err["smooth"] < 0.01 and err["plain"] > 0.03, err
@@ -1008,7 +1015,7 @@ def test_smoothed_prony_follows_a_smooth_spectrum():
 
 
 def test_smoothed_prony_on_the_shipped_data():
-    """On the shipped master curve one term per decade (``smoothness=None``) puts ~44 extrema into
+    """On the shipped master curve one term per decade (``smoothness=None``) puts ~40 extrema into
     the loss curve over its 32 decades (each a place where dR/dT can turn); the smoothed fits
     (lambda = 1 and the default 3) leave a handful, at an rms within 0.02 of the plain fit's;
     n_terms belongs to the plain fit."""
@@ -1018,7 +1025,7 @@ def test_smoothed_prony_on_the_shipped_data():
     plain, smooth = jr.fit_prony(mc, smoothness=None), jr.fit_prony(mc, smoothness=1.0)
     assert _loss_extrema(plain.material, lo, hi) > 30 and _loss_extrema(smooth.material, lo, hi) <= 8
     assert smooth.rms < plain.rms + 0.02
-    # the default (SMOOTHNESS = 3) is smoother still (measured: 4 extrema, rms 0.155)
+    # the default (SMOOTHNESS = 3) is as smooth (measured: 3 extrema, rms 0.207; the fewest terms 38, 0.217)
     default = jr.fit_prony(mc)
     assert default.n_terms == smooth.n_terms and _loss_extrema(default.material, lo, hi) <= 5
     assert default.rms < plain.rms + 0.02
@@ -1026,3 +1033,70 @@ def test_smoothed_prony_on_the_shipped_data():
         jr.fit_prony(mc, n_terms=10)
     with pytest.raises(ValueError, match="smoothness must be finite and > 0"):
         jr.fit_prony(mc, smoothness=0.0)
+
+
+def test_instrument_weights_are_the_propagated_dma_errors():
+    """The weights of :func:`jaxroll.materials.instrument_weights` are ``modulus_sigma`` over the
+    standard errors of ``log G'`` and ``log G''`` for a DMA with a relative error on |G*| and an
+    absolute one on delta: checked against Monte Carlo propagation (200k samples; the sampled
+    standard deviations scatter by ~0.2 %). The weights propagate to first order: within 2 % of
+    the sampled errors where the phase error is small against delta, 4.5 % at tan delta = 0.01,
+    where 0.1 deg is 17 % of delta and the curvature of log sin(delta) widens the sampled spread."""
+    sm, sp = 0.01, math.radians(0.1)
+    tan = np.array([0.01, 0.1, 1.0, 3.0])
+    w = jr.materials.instrument_weights(np.ones(4), tan, phase_sigma=sp, modulus_sigma=sm)
+    rng = np.random.default_rng(0)
+    mag = 1 + sm * rng.standard_normal((200_000, 1))
+    delta = np.arctan(tan) + sp * rng.standard_normal((200_000, 1))
+    sd = np.stack([np.std(np.log(mag * np.cos(delta)), axis=0), np.std(np.log(mag * np.sin(delta)), axis=0)], axis=1)
+    np.testing.assert_allclose(w[1:], sm / sd[1:], rtol=0.02)
+    np.testing.assert_allclose(w[0], sm / sd[0], rtol=0.05)
+    assert w[0, 1] == pytest.approx(0.057, abs=0.001) and w[0, 0] > 0.999  # a glassy loss factor weighs 1/17
+    np.testing.assert_array_equal(jr.materials.instrument_weights(np.ones(4), tan, phase_sigma=0.0), 1.0)
+    with pytest.raises(ValueError, match="phase_sigma must be >= 0"):
+        jr.materials.instrument_weights(np.ones(4), tan, phase_sigma=-1e-3)
+
+
+def test_phase_error_model_leaves_a_kk_consistent_plateau_unbiased():
+    """On a Kramers-Kronig-consistent curve (a known series: log-normal peak on a flat background,
+    tan delta 0.006-0.8, glassy above 1e8 rad/s) sampled as a DMA errs (1 % on |G*|, 0.1 deg on
+    delta at random, and with an offset of 0.1 deg), the glassy storage of the default fit is
+    within 2 % of the truth, as is the fit that weighs storage and loss alike (measured with 161
+    frequencies, benchmarks/prony_smoothness.py: -1.6..+1.3 %): the error model adds no bias of
+    its own."""
+    tau = np.logspace(-14, 8, 111)
+    true = jr.GeneralizedMaxwell(G_inf=1e6, G=2e7 * np.exp(-0.5 * ((np.log10(tau) + 1) / 2.0) ** 2)
+                                 + np.where(tau < 1e-3, 1e6, 2e4), tau=tau)
+    w = np.logspace(-6, 10, 81)
+    g = np.asarray(jr.complex_modulus(true, w))
+    rng = np.random.default_rng(2)
+    top = w > 1e8
+    for offset in (0.0, math.radians(0.1)):
+        mag = np.abs(g) * (1 + 0.01 * rng.standard_normal(w.size))
+        delta = np.angle(g) + math.radians(0.1) * (rng.standard_normal(w.size) + offset / math.radians(0.1))
+        mc = jr.materials.MasterCurve(w, mag * np.cos(delta), mag * np.sin(delta), np.zeros(w.size, int), 293.15)
+        for phase_sigma in (0.0, jr.materials.prony.PHASE_SIGMA):
+            fit = np.asarray(jr.complex_modulus(jr.fit_prony(mc, phase_sigma=phase_sigma).material, w[top])).real
+            assert abs(np.mean(fit / g.real[top] - 1)) < 0.02, (offset, phase_sigma)
+
+
+def test_default_error_model_lowers_the_glassy_bias_of_the_shipped_data():
+    """On the shipped master curve, whose glassy loss asks for more storage than was measured (a
+    loss-only fit implies +29 %, benchmarks/prony_smoothness.py), weighing storage and loss
+    alike puts the coldest set's storage +19.5 % high; the default error model (0.1 deg) lowers
+    that to less than half (measured +8.4 %), still above the storage-only fit (+0.3 %), and fits
+    the loss near its peak (tan delta above half its maximum) no worse (rms 0.064 against 0.079).
+    (The price, measured and documented in docs/dma.md: the loss at tan delta 0.02-0.1 lies 28 %
+    low against 13 %.)"""
+    sw = jr.read_dma_sweeps(DATA)
+    mc = jr.master_curve(sw, jr.materials.fit_shift_factors(sw))
+    cold, tan = mc.set == 0, mc.loss / mc.storage
+    peak = tan >= 0.5 * tan.max()
+    bias, peak_rms = {}, {}
+    for p in (0.0, jr.materials.prony.PHASE_SIGMA):
+        pf = jr.fit_prony(mc, phase_sigma=p)
+        bias[p] = np.mean(np.asarray(jr.complex_modulus(pf.material, mc.omega[cold])).real / mc.storage[cold] - 1)
+        peak_rms[p] = np.sqrt(np.mean(pf.residuals[peak, 1] ** 2))
+    default = jr.materials.prony.PHASE_SIGMA
+    assert 0.0 < bias[default] < 0.5 * bias[0.0] and bias[0.0] > 0.15
+    assert peak_rms[default] <= peak_rms[0.0]

@@ -1,4 +1,4 @@
-"""The code blocks of README.md and fitting/README.md run as written.
+"""The code blocks of README.md, fitting/README.md and the guides' examples run as written.
 
 Every block runs from an empty temporary folder, as after ``pip install .`` in a new project:
 the files the examples read are the package's own (``jaxroll.datasets``). Python blocks run
@@ -26,21 +26,23 @@ from jaxroll.apps.cli import build_parser
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = ["README.md", "fitting/README.md"]
+#: guides whose Python blocks run too (their shell lines need files of the reader's own: parsed only)
+GUIDES = ["docs/dma.md", "docs/conveyor.md"]
 
 
 def _blocks(lang):
     out = []
-    for doc in DOCS:
+    for doc in DOCS + GUIDES:
         text = (REPO / doc).read_text()
         for i, m in enumerate(re.finditer(rf"```{lang}\n(.*?)```", text, re.S)):
             out.append(pytest.param(m.group(1), id=f"{doc}:{lang}{i}"))
     return out
 
 
-def _shell_commands():
-    """(doc, command) for every command line of the shell blocks (continuations joined)."""
+def _shell_commands(docs=DOCS):
+    """(doc, command) for every command line of the shell blocks of ``docs`` (continuations joined)."""
     out = []
-    for doc in DOCS:
+    for doc in docs:
         text = (REPO / doc).read_text()
         for block in re.findall(r"```bash\n(.*?)```", text, re.S):
             joined = re.sub(r"\\\n\s*", " ", block)
@@ -131,7 +133,7 @@ def test_the_wheel_ships_every_dataset():
 def test_every_shell_command_parses():
     parser = build_parser()
     seen = 0
-    for doc, line in _shell_commands():
+    for doc, line in _shell_commands(DOCS + GUIDES):
         for part in line.split("&&"):
             words = shlex.split(part)
             if words and words[0] == "jaxroll":

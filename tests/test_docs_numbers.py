@@ -53,3 +53,19 @@ def test_recorded_default_grid_errors_are_bounded_by_their_truncation():
     defaults = [r["default"] for r in rows if r["default"] is not None]
     assert len(defaults) >= 60  # 2 geometries x the calibration and validation points of the study
     assert all(abs(d["error"]) <= d["truncation"] for d in defaults)
+
+
+def test_recorded_edge_smoothing_bias_within_the_envelope_the_truncation_uses():
+    # docs/validation.md's edge-smoothing table (edge_smoothing_bias.py --record) against the
+    # envelopes of jaxroll.grids that the truncation doubles: a re-measured bias above them fails here
+    from jaxroll import grids
+
+    runs = json.loads((REPO / "benchmarks" / "numbers.json").read_text())["edge_smoothing"]["runs"]
+    assert {"sphere-f1", "cylinder-f1"} <= set(runs) and len(runs) >= 5
+    for key, run in runs.items():
+        model = "sphere3d" if key.startswith("sphere") else "cylinder"
+        k = run["kappa"]
+        for r in run["rows"]:
+            assert abs(r["extrapolated"]) <= 100 * grids.EDGE_EXTRAPOLATED_BIAS[model], (key, r)
+            assert abs(r["kappa"]) <= 100 * grids.EDGE_BIAS_SCALE[model] * k**1.5, (key, r)
+            assert abs(r["kappa2"]) <= 100 * grids.EDGE_BIAS_SCALE[model] * (2 * k) ** 1.5, (key, r)

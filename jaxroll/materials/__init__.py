@@ -34,7 +34,7 @@ from .material import (
 from .read import DMASweeps, read_dma_sweeps, read_isochronal, read_master_curve, read_prony_table, read_shift_factors
 from .checks import check_sweeps
 from .shift import MasterCurve, ShiftFactors, ShiftFit, fit_arrhenius, fit_shift_factors, fit_wlf, loss_artifacts, master_curve
-from .prony import PronyFit, fit_prony, prony_moduli
+from .prony import PronyFit, fit_prony, instrument_weights, prony_moduli
 from .export import load_material, save_material, write_abaqus, write_ansys
 
 __all__ = [
@@ -44,6 +44,6 @@ __all__ = [
     "DMASweeps", "read_dma_sweeps", "read_master_curve", "read_prony_table", "read_shift_factors", "read_isochronal", "check_sweeps",
     "MasterCurve", "ShiftFactors", "ShiftFit", "fit_arrhenius", "fit_shift_factors", "fit_wlf", "loss_artifacts",
     "master_curve",
-    "PronyFit", "fit_prony", "prony_moduli",
+    "PronyFit", "fit_prony", "instrument_weights", "prony_moduli",
     "load_material", "save_material", "write_abaqus", "write_ansys",
 ]

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ...io import write_table
-from .options import count, poisson, positive, progress_args, say
+from .options import count, nonnegative, poisson, positive, progress_args, say
 
 
 def run(args) -> int:
@@ -38,9 +38,12 @@ def run(args) -> int:
         if args.prony_terms is not None and args.prony_smoothness is not None:
             raise ValueError("--prony-terms selects the fewest-terms fit and --prony-smoothness the smooth one: give one")
         fewest = args.prony_terms is not None
+        for name in ("phase_sigma", "modulus_sigma"):  # defaults: the instrument error model of jaxroll.materials.prony
+            if getattr(args, name) is None:
+                setattr(args, name, getattr(jr.materials.prony, name.upper()))
         smoothness = None if fewest else args.prony_smoothness or jr.materials.prony.SMOOTHNESS
-        pf = jr.fit_prony(master, smoothness=smoothness, weights=weights,
-                          **({"n_terms": args.prony_terms} if fewest else {}))
+        pf = jr.fit_prony(master, smoothness=smoothness, weights=weights, phase_sigma=args.phase_sigma,
+                          modulus_sigma=args.modulus_sigma, **({"n_terms": args.prony_terms} if fewest else {}))
     warned = [str(w.message) for w in caught if issubclass(w.category, jr.DataWarning)]
     warned += [n if "Arrhenius" in n else f"Arrhenius: {n}" for n in arr.notes]
     warned += [n if "WLF" in n else f"WLF: {n}" for n in wlf.notes if n not in warned]
@@ -86,7 +89,8 @@ def run(args) -> int:
             "Arrhenius": {"activation_energy": arr.params["activation_energy"],
                           "ci95": _ci(arr)["activation_energy"], "rms_decades": arr.rms},
             "warnings": warned,
-            "prony": {"n_terms": pf.n_terms, "smoothness": smoothness, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+            "prony": {"n_terms": pf.n_terms, "smoothness": smoothness, "phase_sigma": args.phase_sigma,
+                      "modulus_sigma": args.modulus_sigma, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
                       "rms_log_per_decade": {f"1e{d}": sl for d, sl in per_decade.items()},
                       "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
                                                    for f in master.frequency[artifacts]}),
@@ -155,6 +159,13 @@ def add_parser(sub) -> None:
                     default=None, help="weight of the smooth spectrum's curvature penalty (3 fixed relaxation times "
                     "per decade; default 3: the loss curve, and the rolling resistance in temperature, without "
                     "ripples from the term spacing)")
+    mt.add_argument("--phase-sigma", dest="phase_sigma", type=nonnegative("--phase-sigma [rad]"),
+                    default=None, help="absolute error of the instrument's phase angle [rad] "
+                    "weighting the Prony fit's loss residuals by 1 / sqrt(modulus_sigma^2 + (phase_sigma / tan "
+                    "delta)^2): the loss counts less where tan delta is small, on the glassy and rubbery plateaus "
+                    "(default 0.001745 = 0.1 deg; 0 weighs storage and loss alike)")
+    mt.add_argument("--modulus-sigma", dest="modulus_sigma", type=positive("--modulus-sigma"),
+                    default=None, help="relative error of the instrument's |E*| or |G*| (default 0.01)")
     mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
                     help="leave out of the Prony fit the loss values at a measured frequency where the loss turns "
                     "up in most sets (jaxroll.materials.loss_artifacts: its second difference along each sweep above 4 robust "
