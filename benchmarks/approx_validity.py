@@ -63,7 +63,7 @@ FIELDS = ["case", "material", "T", "G0", "tau", "f", "H", "R", "P", "V", "method
 
 
 def shipped_prony():
-    """The Prony material and WLF shift fitted to the shipped pyvisco DMA data (as README)."""
+    """The Prony material and WLF shift fitted to the shipped pyvisco DMA data (as docs/dma.md's example)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sw = jr.read_dma_sweeps(jr.datasets.path("pyvisco_freq_user_raw.csv"))

@@ -11,7 +11,8 @@ layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
 * ``single``: ``jr.rolling_resistance``, one point per call (front door, compiled), 100 N, 0.01 m/s;
 * ``points``: ``Full.evaluate_points`` on the table's points (one ``lax.scan``, warm starts
   along it, a kernel per point);
-* ``vmap H x20``: ``jax.jit(jax.vmap(front door))`` over 20 thicknesses 5..50 mm (lockstep lanes)
+* ``vmap H x20``: ``jax.jit(jax.vmap(front door))`` over 20 thicknesses 5..50 mm (the batching
+  rule of ``Full.evaluate``: one warm-started scan in the order of the counting sizes)
   and ``points H x20``: ``Full.evaluate_points`` with the layer batched;
 * ``map``: ``jr.resistance_map`` of the shipped measured Prony material
   (``pyvisco_freq_user_raw.csv``: WLF, Prony fit) on a 10 mm layer, 10 N, R = 1 cm, 253..373 K x

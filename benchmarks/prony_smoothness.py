@@ -12,13 +12,13 @@ tan delta is above half its maximum. Kramers-Kronig consistency of the data: a l
 (a Prony series is KK-consistent by construction) gives the storage the measured loss implies,
 up to the constant ``G_inf``, set so that it meets the measured storage on the warmest set; its
 plateau bias is computed for the measured phase and for the phase moved by -4..+1 times
-``PHASE_SIGMA``.
+``INSTRUMENT_PHASE_SIGMA`` (0.1 deg).
 
 With ``--rolling``: the extrema in temperature of the rolling resistance of a 1 cm ball (10 N,
 H = 10 mm) from -40 to 100 degC, by the direct method (1 K steps; 1 mm/s, 0.1 m/s, 1 m/s),
-for the fewest-terms fit, smoothness 1 and 3 (the default), and the default at
-``phase_sigma=0``; and the change of R(T) between the default and ``phase_sigma=0``, by the
-direct method and by the full 3D model (5 K steps; 1 mm/s, 1 m/s).
+for the fewest-terms fit, smoothness 1 and 3 (the default), and the default with the instrument
+error model (``phase_sigma`` 0.1 deg); and the change of R(T) between the two, by the direct
+method and by the full 3D model (5 K steps; 1 mm/s, 1 m/s).
 
 Run: ``python benchmarks/prony_smoothness.py [--record] [--rolling]`` (a minute; more with
 --rolling). ``--record`` stores the tables in benchmarks/numbers.json (``prony_plateau``) for
@@ -33,7 +33,7 @@ import jaxroll as jr
 from jaxroll.materials import prony
 
 DATA = jr.datasets.path("pyvisco_freq_user_raw.csv")
-PHASES = (0.0, 1e-3, prony.PHASE_SIGMA, 3e-3)
+PHASES = (0.0, 1e-3, prony.INSTRUMENT_PHASE_SIGMA, 3e-3)
 #: tan delta bands of the loss bias (mean log residual of the loss): plateaus, transition, peak
 BANDS = (("< 0.02", 0.0, 0.02), ("0.02-0.1", 0.02, 0.1), (">= 0.1", 0.1, np.inf))
 
@@ -82,7 +82,7 @@ def plateau_rows(mc):
     w = np.ones((len(mc.omega), 2))
     w[:, 1] = 0.0
     rows.append(row(mc, jr.fit_prony(mc, weights=w, phase_sigma=0.0), "storage only"))
-    kk = {f"{s:+d}": kk_implied_bias(mc, s * prony.PHASE_SIGMA) for s in (-4, -2, -1, 0, 1)}
+    kk = {f"{s:+d}": kk_implied_bias(mc, s * prony.INSTRUMENT_PHASE_SIGMA) for s in (-4, -2, -1, 0, 1)}
     return {"rows": rows, "kk_implied": kk}
 
 
@@ -98,17 +98,19 @@ def synthetic(n_omega=161, seed=2):
 
 def synthetic_rows(seed=2):
     """Glassy (omega > 1e8 rad/s) storage bias of fits to the synthetic curve sampled with 1 % on
-    |G*| and PHASE_SIGMA on delta (random), and the same plus a phase offset of +-PHASE_SIGMA."""
+    |G*| and INSTRUMENT_PHASE_SIGMA on delta (random), and the same plus a phase offset of
+    +-INSTRUMENT_PHASE_SIGMA."""
     true, w = synthetic()
     g = np.asarray(jr.complex_modulus(true, w))
     rng = np.random.default_rng(seed)
     top, out = w > 1e8, []
-    for label, offset in (("random", 0.0), ("offset +0.1 deg", prony.PHASE_SIGMA), ("offset -0.1 deg", -prony.PHASE_SIGMA)):
+    sp = prony.INSTRUMENT_PHASE_SIGMA
+    for label, offset in (("random", 0.0), ("offset +0.1 deg", sp), ("offset -0.1 deg", -sp)):
         mag = np.abs(g) * (1 + prony.MODULUS_SIGMA * rng.standard_normal(w.size))
-        delta = np.angle(g) + prony.PHASE_SIGMA * rng.standard_normal(w.size) + offset
+        delta = np.angle(g) + sp * rng.standard_normal(w.size) + offset
         mc = jr.materials.MasterCurve(w, mag * np.cos(delta), mag * np.sin(delta), np.zeros(w.size, int), 293.15)
         bias = {}
-        for p in (0.0, prony.PHASE_SIGMA):
+        for p in (0.0, sp):
             fit = np.asarray(jr.complex_modulus(jr.fit_prony(mc, phase_sigma=p).material, w[top])).real
             bias[f"{p * 1e3:.2f}"] = float(np.mean(fit / g.real[top] - 1))
         out.append({"errors": label, "glassy_bias": bias})
@@ -135,17 +137,18 @@ def smoothness_rows(mc):
 
 
 def rolling(sw):
-    """Extrema of R(T) per fit and speed, and the change of R(T) from phase_sigma = 0 to the
-    default: the direct method for every fit, the full model (5 K steps) for those two."""
+    """Extrema of R(T) per fit and speed, and the change of R(T) from the default (phase_sigma = 0)
+    to the instrument error model: the direct method for every fit, the full model (5 K steps) for
+    those two."""
     shifts = jr.fit_shift_factors(sw, T_ref=298.15)
     shift, mc = jr.fit_wlf(shifts).shift, jr.master_curve(sw, shifts)
     fits = {"smoothness None": jr.fit_prony(mc, smoothness=None), "smoothness 1": jr.fit_prony(mc, smoothness=1.0),
-            "default": jr.fit_prony(mc), "default, phase_sigma 0": jr.fit_prony(mc, phase_sigma=0.0)}
+            "default": jr.fit_prony(mc), "phase_sigma 0.1 deg": jr.fit_prony(mc, phase_sigma=prony.INSTRUMENT_PHASE_SIGMA)}
     for method, step, speeds in (("direct", 1.0, (1e-3, 0.1, 1.0)), ("full", 5.0, (1e-3, 1.0))):
         T = np.arange(233.15, 373.15 + step / 2, step)
         R = {}
         for name, pf in fits.items():
-            if method == "full" and not name.startswith("default"):
+            if method == "full" and name not in ("default", "phase_sigma 0.1 deg"):
                 continue
             m = jr.resistance_map(pf.material, shift, jr.Layer(H=0.01), radius=0.01, load=10.0, temperatures=T,
                                   speeds=np.array(speeds), method=None if method == "full" else method)
@@ -155,10 +158,10 @@ def rolling(sw):
                 print(f"{method:6s} {name:24s} ({pf.n_terms:3d} terms) V {V:g} m/s: {len(at):2d} sign changes of "
                       f"dR/dT at {np.round(at).astype(int).tolist()} degC; {int(valid[:, j].sum())} of {len(T)} valid",
                       flush=True)
-        change = R["default"] / R["default, phase_sigma 0"] - 1
+        change = R["phase_sigma 0.1 deg"] / R["default"] - 1
         for j, V in enumerate(speeds):
             k = int(np.argmax(np.abs(change[:, j])))
-            print(f"{method:6s} R(T) default / phase_sigma 0 - 1 at V {V:g} m/s: median {np.median(change[:, j]):+.1%}, "
+            print(f"{method:6s} R(T) phase_sigma 0.1 deg / default - 1 at V {V:g} m/s: median {np.median(change[:, j]):+.1%}, "
                   f"largest {change[k, j]:+.1%} at {T[k] - 273.15:.0f} degC; at -40/0/25/60/100 degC: "
                   + ", ".join(f"{change[np.argmin(np.abs(T - 273.15 - t)), j]:+.1%}" for t in (-40, 0, 25, 60, 100)),
                   flush=True)
@@ -176,14 +179,14 @@ def main():
     plateau = {"shipped (21 sets)": plateau_rows(mc)}
     for name, sec in plateau.items():
         print(f"\n{name}: storage implied by the loss (KK) with the phase moved by -4, -2, -1, 0, +1 x "
-              f"{prony.PHASE_SIGMA * 1e3:.2f} mrad: " + ", ".join(f"{v:+.1%}" for v in sec["kk_implied"].values()))
+              f"{prony.INSTRUMENT_PHASE_SIGMA * 1e3:.2f} mrad: " + ", ".join(f"{v:+.1%}" for v in sec["kk_implied"].values()))
         for r in sec["rows"]:
             print(f"  {r['fit']:24s} coldest-set storage {r['cold_bias']:+6.1%}  rms storage {r['rms_storage']:.3f}  "
                   f"loss {r['rms_loss']:.3f}  loss near the peak {r['rms_loss_peak']:.3f}; mean loss residual at tan "
                   "delta " + ", ".join(f"{k}: {v:+.3f}" for k, v in r["loss_bias_by_tan"].items()))
     syn, kk_exact = synthetic_rows()
     print(f"\nsynthetic KK-consistent curve: storage implied by its exact loss {kk_exact:+.2%}; "
-          "glassy storage bias of fits at phase_sigma 0 / default:")
+          "glassy storage bias of fits at phase_sigma 0 (default) / 0.1 deg:")
     for r in syn:
         print(f"  {r['errors']:16s} " + " / ".join(f"{v:+.2%}" for v in r["glassy_bias"].values()))
     if "--record" in sys.argv:
@@ -191,7 +194,7 @@ def main():
         import _numbers
 
         _numbers.record("prony_plateau", {"command": "python benchmarks/prony_smoothness.py --record",
-                                          "phase_sigma": prony.PHASE_SIGMA, "smoothness": smooth,
+                                          "phase_sigma": prony.INSTRUMENT_PHASE_SIGMA, "smoothness": smooth,
                                           "plateau": plateau, "synthetic": syn,
                                           "synthetic_kk_implied": kk_exact})
 

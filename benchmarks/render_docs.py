@@ -271,7 +271,8 @@ def edge_smoothing(numbers: dict) -> str:
         rs = runs[key]["rows"]
         worst = max(rs, key=lambda r: abs(r["extrapolated"]))
         span = f"zeta {_round1(min(r['zeta'] for r in rs))}-{_round1(max(r['zeta'] for r in rs))}"
-        others.append(f"{_EDGE_RUNS[material]} ({geometry}, {span}) {abs(worst['extrapolated']):.3f} % "
+        label = _EDGE_RUNS.get(material) or f"SLS f = {material.removeprefix('f')}"
+        others.append(f"{label} ({geometry}, {span}) {abs(worst['extrapolated']):.3f} % "
                       f"(at zeta = {_round1(worst['zeta'])})")
     flagged = {}
     for key, run in runs.items():
@@ -285,7 +286,6 @@ def edge_smoothing(numbers: dict) -> str:
     return "\n".join(lines)
 
 
-#: generated block name -> renderer of numbers.json
 def _pct1(x):
     return f"{x * 100:+.1f} %"
 
@@ -308,12 +308,14 @@ def prony_plateau_table(numbers: dict) -> str:
     the storage the loss implies and the synthetic check."""
     sec = numbers["prony_plateau"]
     ship = sec["plateau"]["shipped (21 sets)"]
-    lines = ["| fit (smooth default) | coldest-set storage | rms log storage | rms log loss | loss near the peak "
+    lines = ["| smooth fit | coldest-set storage | rms log storage | rms log loss | loss near the peak "
              "| mean log loss residual, tan delta < 0.02 / 0.02-0.1 / >= 0.1 |", "|---|---|---|---|---|---|"]
     for r in ship["rows"]:
         label = r["fit"].replace("phase_sigma", "`phase_sigma`")
         if r["fit"] == f"phase_sigma {sec['phase_sigma'] * 1e3:.2f} mrad":
-            label += " (default, 0.1 deg)"
+            label += " (0.1 deg, assumed)"
+        elif r["fit"] == "phase_sigma 0.00 mrad":
+            label += " (default)"
         bands = " / ".join(f"{r['loss_bias_by_tan'][k]:+.2f}" for k in ("< 0.02", "0.02-0.1", ">= 0.1"))  # json sorts keys
         lines.append(f"| {label} | {_pct1(r['cold_bias'])} | {r['rms_storage']:.3f} | {r['rms_loss']:.3f} | "
                      f"{r['rms_loss_peak']:.3f} | {bands} |")
@@ -322,7 +324,8 @@ def prony_plateau_table(numbers: dict) -> str:
               f"{_pct1(kk['+0'])}; with the phase moved by -0.4, -0.2, -0.1, +0.1 deg: "
               f"{', '.join(_pct1(kk[k]) for k in ('-4', '-2', '-1', '+1'))}. The same estimate on the exact "
               f"synthetic curve: {sec['synthetic_kk_implied'] * 100:+.2f} %.", "",
-              "| synthetic curve, errors | glassy storage, `phase_sigma=0` | default |", "|---|---|---|"]
+              "| synthetic curve, errors | glassy storage, `phase_sigma=0` (default) | `phase_sigma` 0.1 deg |",
+              "|---|---|---|"]
     for r in sec["synthetic"]:
         b = [r["glassy_bias"]["0.00"], r["glassy_bias"][f"{sec['phase_sigma'] * 1e3:.2f}"]]
         lines.append(f"| 1 % on \\|G*\\|, 0.1 deg on delta, {r['errors']} | {b[0] * 100:+.2f} % | {b[1] * 100:+.2f} % |")
@@ -330,6 +333,7 @@ def prony_plateau_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+#: generated block name -> renderer of numbers.json
 BLOCKS = {
     "prony-smoothness": prony_smoothness_table,
     "prony-plateau": prony_plateau_table,

@@ -10,7 +10,7 @@ The full models report the dissipation form ``-int p du/dx`` as ``value`` (also
   contact_radius,seconds``. Materials: standard linear solids G0 = 3 MPa, tau = 0.25 s, f = 1
   (``s1``) and 3 (``s3``) at zeta = V tau/a0, and a 21-term Prony series (``pr``, G_inf = 3 MPa,
   G_i = 1.5 MPa 10^(-k/10), tau_i = 10^k s, k = -10..10: 20 decades) at 1e-6..1e3 m/s;
-  and f = 0.1 and 0.3 (``s01``, ``s03``) at zeta = 0.05..0.3. The
+  and f = 0.1 and 0.3 (``s01``, ``s03``) at zeta = 0.05..1. The
   tables of :mod:`jaxroll.grids` (``SPHERE_ERROR``, ``LINE_ERROR``) are this study's envelope.
 * ``--analyse FILE [FILE...] [--record]``: the study's errors [%] M / D, against the exact solution (cylinder, SLS)
   or against the dissipation form extrapolated to zero cell size from >= 20 cells (a fit
@@ -51,7 +51,7 @@ MATERIALS = {"s1": S1, "s3": S3, "pr": PRONY, "s05": jr.StandardLinearSolid(G0=3
              "s2": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=2.0), "st": STEEP,
              "s01": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=0.1), "s03": jr.StandardLinearSolid(G0=3e6, tau=0.25, f=0.3)}
 #: weakly dispersive solids (f = 0.1, 0.3) err most just below the loss peak
-LOW_F_ZETAS = [0.05, 0.1, 0.17, 0.3]
+LOW_F_ZETAS = [0.05, 0.1, 0.17, 0.3, 0.5, 1.0]
 LOAD = {"sphere": 100.0, "cylinder": 1e4}
 ZETAS = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 10.0, 100.0, 1000.0]
 PRONY_SPEEDS = [1e-6, 1e-3, 1.0, 1e3]

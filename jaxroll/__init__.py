@@ -4,16 +4,21 @@ viscoelastic layers of finite thickness.
 Importing jaxroll enables JAX's float64 mode (see ``jaxroll._numerics``) and JAX's persistent
 compilation cache in the user's cache directory, ``~/.cache/jaxroll/jax`` (environment variable
 ``JAXROLL_COMPILATION_CACHE``: ``0`` switches it off, a path moves it; see
-``jaxroll._compilation_cache``). Imported before JAX, it also sets ``TF_CPP_MIN_LOG_LEVEL=3`` when
-that is unset: XLA's C++ log would otherwise print three false "could lead to execution errors
-such as SIGILL" lines for every program loaded from that cache on some x86 processors (JAX
-itself sets level 1; ``TF_CPP_MIN_LOG_LEVEL=0`` shows everything).
+``jaxroll._compilation_cache``). Imported before JAX with that cache on, it also sets
+``TF_CPP_MIN_LOG_LEVEL=3`` when that is unset: XLA's C++ log would otherwise print three false
+"could lead to execution errors such as SIGILL" lines (ERROR level) for every program loaded from
+the cache on some x86 processors. Level 3 hides XLA's other C++ errors too (JAX itself sets level
+1), also in the subprocesses that inherit the environment; ``TF_CPP_MIN_LOG_LEVEL=1`` or ``0``
+before ``import jaxroll`` keeps them.
 """
 
 import os as _os
 import sys as _sys
 
-if "jax" not in _sys.modules:  # the level is read once, when JAX loads XLA
+# the level is read once, when JAX loads XLA; "0", "off", ... switch the cache off
+# (jaxroll._compilation_cache._OFF, not imported here: it imports JAX)
+if "jax" not in _sys.modules and _os.environ.get("JAXROLL_COMPILATION_CACHE", "").strip().lower() not in (
+        "0", "off", "false", "no"):
     _os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
 
 from . import _numerics  # noqa: F401  (enables float64 first)

@@ -513,7 +513,7 @@ SPHERE_ERROR_CELLS = (12, 16, 20, 24, 32, 48, 64)
 #: at zeta = 0.1: -0.58 % at 16 cells; not run at 64 cells, where the rows at zeta = 0.1 and
 #: 0.3 repeat the 48-cell value), and two Prony series of 20 and 12 decades at 1e-6..1e3 m/s,
 #: whose regime zeta is 1.0-1.2), each
-#: against its value extrapolated to zero cell size from 20..64 cells (a fit ``D + C c^-p``);
+#: against its value extrapolated to zero cell size from 20..64 cells (20..48 for f = 0.1, 0.3; a fit ``D + C c^-p``);
 #: the Prony series' own envelope is :data:`SPHERE_BROAD_ERROR`. At zeta <= 3e-3 the
 #: convergence is first order or slower, so the extrapolation there is uncertain (the
 #: truncation also takes the moment-dissipation gap, which brackets it).

@@ -306,7 +306,17 @@ class Full(_GridMethod):
     def evaluate(self, material, layer, R, P, V, geometry):
         """``R_r`` [N, or N/m] from the full model of ``geometry``: the contact solved on the grid's
         window with the model's kernel (:mod:`jaxroll.engines.sphere3d` / :mod:`jaxroll.engines.cylinder`),
-        ``R_r = (1/R) sum p x dA`` of the solved pressure."""
+        ``R_r = (1/R) sum p x dA`` of the solved pressure.
+
+        Under ``jax.vmap`` the batch is solved by :meth:`evaluate_points` (:func:`_sequential_under_vmap`):
+        the points one after the other in the order of their counting sizes, each warm-started
+        from the previous one, instead of lockstep lanes whose while loops all run to the slowest
+        lane's count from a cold start. The numbers are each point's to the solver tolerance; the
+        derivatives are those of the point (forward and reverse mode)."""
+        return _sequential_under_vmap(self, (material, layer, R, P, V), geometry)
+
+    def _evaluate_one(self, material, layer, R, P, V, geometry):
+        """:meth:`evaluate` at one point (the body that ``jax.vmap`` does not see)."""
         model = _FULL_MODELS[geometry]
         size = counting_size(material, layer, R, P, V, geometry)
         s = self._solve(model, model.kernel_builder(material, layer, self.grid)(V), R, P, size)
@@ -400,6 +410,44 @@ class Full(_GridMethod):
             return out
         inverse = jnp.zeros(n, order.dtype).at[order].set(jnp.arange(n, dtype=order.dtype))
         return jax.tree_util.tree_map(lambda x: x[inverse], out)
+
+
+def _sequential_under_vmap(method, args, geometry):
+    """``method._evaluate_one(*args, geometry)`` with a batching rule: under ``jax.vmap`` the
+    points go to :meth:`Full.evaluate_points` (a warm-started ``lax.scan``, in the order of the
+    counting sizes, :func:`jaxroll.grids.counting_size`, so that neighbours are alike), unless the
+    method's own arrays (the grid's cell size) are batched (then plain ``jax.vmap``). Derivatives
+    (``jax.jvp``, hence ``jax.grad`` and ``jax.jacfwd``) are those of the single point: a
+    ``custom_jvp`` whose rule differentiates the unbatched body (``custom_vmap`` alone has no
+    reverse mode). Only the array leaves are arguments; Python scalars (a layer's ``rho = 0``,
+    which selects the quasi-static formulation) stay static."""
+    dyn, static = eqx.partition((method, *args), eqx.is_array)
+
+    def plain(dyn):
+        m, *a = eqx.combine(dyn, static)
+        return m._evaluate_one(*a, geometry)
+
+    def rule(axis_size, in_batched, dyn):
+        (batched,) = in_batched
+        if any(jax.tree_util.tree_leaves(batched[0])):  # a batched grid: lockstep lanes
+            axes = jax.tree_util.tree_map(lambda b: 0 if b else None, batched)
+            out = jax.vmap(plain, in_axes=(axes,))(dyn)
+            return out, jax.tree_util.tree_map(lambda _: True, out)
+        # an argument with a batched leaf is batched whole: its other array leaves are broadcast
+        grown = jax.tree_util.tree_map(lambda x, b: x if b else jnp.broadcast_to(x, (axis_size,) + x.shape), dyn,
+                                       batched)
+        axes = tuple(0 if any(jax.tree_util.tree_leaves(b)) else None for b in batched[1:])
+        m, *given = eqx.combine(dyn, static)
+        a = tuple(g if ax == 0 else x for g, x, ax in zip(eqx.combine(grown, static)[1:], given, axes))
+        sizes = jax.vmap(lambda i: counting_size(*_take(a, axes, i), geometry))(jnp.arange(axis_size))
+        out = m.evaluate_points(*a, geometry, axes=axes, order=jnp.argsort(sizes))
+        return out, jax.tree_util.tree_map(lambda _: True, out)
+
+    batched_plain = jax.custom_batching.custom_vmap(plain)
+    batched_plain.def_vmap(rule)
+    f = jax.custom_jvp(batched_plain)
+    f.defjvp(lambda primals, tangents: jax.jvp(plain, primals, tangents))
+    return f(dyn)
 
 
 def _take(args, axes, index):

@@ -15,7 +15,8 @@ The ``N`` points are split evenly over a one-axis device mesh (``jax.make_mesh``
 ``ShardingTypeError``), and inside ``jax.shard_map`` each device walks its share in chunks of
 ``chunk_size`` points with a ``lax.scan`` over ``jax.vmap(fn)`` (or, ``vectorize=False``, over a
 ``lax.map`` of ``fn``: the points of a chunk one after the other, for iterative solvers whose
-while loops would otherwise run every lane to the slowest lane's count): the working memory is
+while loops would otherwise run every lane to the slowest lane's count; the full models batch
+their own points, see ``vectorize``): the working memory is
 that of one chunk per device, whatever ``N`` is. ``N`` need not divide anything: the points
 are padded to ``devices * n_chunks * chunk`` (points by repeating the last point, grids by
 clamping the flat index, so the padding is always a valid parameter point and cannot raise or
@@ -311,12 +312,12 @@ def sweep(
             device too (docs/design.md sec. 4: 1.5 GB without, 150 MiB with). No effect on a plain
             evaluation; ``False`` skips the recomputation (not faster in our measurement).
         vectorize: ``True`` (default): each chunk is one ``jax.vmap(fn)``, its points in
-            lockstep lanes (best for closed forms, e.g. the direct method). ``False``: the points
-            of a chunk run one after the other (``lax.map``), each at its own cost: for
-            iterative solvers (the full models), whose while loops under ``vmap`` run every
-            lane to the slowest lane's iteration count (benchmarks/bench_batched.py). For many
-            points of one full model, :meth:`jaxroll.methods.Full.evaluate_points` is faster
-            still: it also starts each solve from the previous point's solution.
+            lockstep lanes (best for closed forms, e.g. the direct method); the full models'
+            ``Full.evaluate`` has its own batching rule, so a chunk of their points runs as one
+            warm-started scan (:meth:`jaxroll.methods.Full.evaluate_points`). ``False``: the
+            points of a chunk run one after the other (``lax.map``), each at its own cost and
+            from a cold start: for other iterative solvers, whose while loops under ``vmap`` run
+            every lane to the slowest lane's iteration count (benchmarks/bench_batched.py).
 
     Returns:
         The pytree ``fn`` returns, each leaf with the sweep's shape prepended: ``grid.shape``

@@ -40,7 +40,7 @@ def _grid(material, layer, method, speeds, loads, radius=RADIUS, geometry="spher
 
 @pytest.fixture(scope="module")
 def shipped():
-    """The shipped measured Prony material and its WLF shift (as the README builds them)."""
+    """The shipped measured Prony material and its WLF shift (as docs/dma.md's example builds them)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", jr.DataWarning)
         sw = jr.read_dma_sweeps(jr.datasets.path("pyvisco_freq_user_raw.csv"))

@@ -66,6 +66,50 @@ def test_points_equal_eager_single_points(geometry, sorted_by_speed):
         assert int(result[i]) == int(one.result), i
 
 
+@functools.partial(jax.jit, static_argnames=("geometry", "with_grad"))
+def _vmapped_front_door(G0, H, P, V, *, geometry, with_grad):
+    """``jax.vmap`` of the front door over (H, P, V): the full models' batching rule
+    (``Full.evaluate``) solves the lanes one after the other, warm-started, not in lockstep."""
+    def one(G0, h, p, v):
+        mat = jr.StandardLinearSolid(G0, PAPER.tau, PAPER.f)
+        return jr.rolling_resistance(mat, jr.Layer(h), radius=RADIUS, load=p, speed=v, geometry=geometry,
+                                     method=CASES[geometry][0], throw=False)
+    res = jax.vmap(one, in_axes=(None, 0, 0, 0))(G0, H, P, V)
+    if not with_grad:
+        return res.value, res.result, None
+    total = lambda g: jnp.sum(jax.vmap(one, in_axes=(None, 0, 0, 0))(g, H, P, V).value)  # noqa: E731
+    return res.value, res.result, jax.grad(total)(G0)
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
+@pytest.mark.parametrize("geometry", ["sphere", "cylinder"])
+def test_vmap_of_the_front_door_equals_eager_single_points(geometry):
+    """``jax.jit(jax.vmap(jr.rolling_resistance))`` of the full models over points with unlike
+    neighbours: each lane the eager point's value and code (1e-10: the solver tolerance, as
+    above), and ``jax.grad`` of the sum over the lanes w.r.t. the shared G0 the sum of the
+    single points' gradients (the cylinder's first three points; 1e-8: each is an implicit
+    derivative of a solution converged to 1e-10; the single-point gradient is checked against
+    central differences in test_points_gradients_are_implicit_per_point)."""
+    loads = CASES[geometry][1]
+    value, result, _ = _vmapped_front_door(jnp.asarray(PAPER.G0), THICKNESSES, loads, SPEEDS, geometry=geometry,
+                                           with_grad=False)
+    for i, (H, P, V) in enumerate(zip(THICKNESSES, loads, SPEEDS)):
+        one = _eager(PAPER, H, P, V, geometry)
+        assert abs(float(value[i]) / float(one.value) - 1) < 1e-10, (i, float(value[i]), float(one.value))
+        assert int(result[i]) == int(one.result), i
+
+    def single_grad(H, P, V):
+        return jax.grad(lambda g: _eager(jr.StandardLinearSolid(g, PAPER.tau, PAPER.f), H, P, V, geometry).value)(
+            jnp.asarray(PAPER.G0))
+
+    if geometry == "sphere":
+        return
+    H, P, V = THICKNESSES[:3], loads[:3], SPEEDS[:3]
+    grad = _vmapped_front_door(jnp.asarray(PAPER.G0), H, P, V, geometry=geometry, with_grad=True)[2]
+    expected = sum(float(single_grad(*x)) for x in zip(H, P, V))
+    np.testing.assert_allclose(float(grad), expected, rtol=1e-8)
+
+
 # the coarse sphere grid's error bound flags a low-zeta point (truncation_too_large): the
 # gradient comparison is about the discrete model, whatever its resolution
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")

@@ -12,7 +12,7 @@ import pytest
 import jaxroll as jr
 from jaxroll.apps.cli import build_parser
 from jaxroll.apps.cli.options import method_from_args
-from jaxroll.identify.fit import MAX_REGRIDS, REGRID_FACTOR, IdentifiabilityWarning, RollingData, fit_material
+from jaxroll.identify.fit import MAX_REFITS, REGRID_FACTOR, IdentifiabilityWarning, RollingData, fit_material
 from jaxroll.methods import FIT_EDGE_SMOOTHING, default_method
 
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
@@ -110,12 +110,13 @@ def test_fit_material_default_resolves_its_grid_and_regrids_once():
     start = jr.StandardLinearSolid(1.5e6, 0.25, 1.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)  # G0-tau correlation (expected)
+        # the grid logic under test; linearised intervals (the profiles are test_fit_unbiased.py's)
         fit = fit_material(RollingData(V, P, y), initial=start, layer=HALF, radius=R, geometry="cylinder",
-                           free=("G0", "tau"))
+                           free=("G0", "tau"), intervals="linear")
     assert isinstance(fit.method, jr.Full) and fit.method.edge_smoothing == FIT_EDGE_SMOOTHING
     assert fit.method.edge_extrapolation
     assert isinstance(fit.method.grid, jr.FixedGrid)
-    assert 2 <= len(fit.starts) <= 1 + MAX_REGRIDS  # the first fit, and those on grids resolved at its results
+    assert 2 <= len(fit.starts) <= 1 + MAX_REFITS  # the first fit, refits on grids resolved at its results
     final = default_method("cylinder", fit=True).resolve(fit.material, HALF, radius=R, loads=P, speeds=V,
                                                          geometry="cylinder")
     # the fit ended on a grid within REGRID_FACTOR of the one its own result needs

@@ -688,11 +688,8 @@ def test_shipped_pipeline(shipped):
     assert np.all(np.diff(sh.log10_aT) < 0)  # hotter: faster
     lo, hi = wlf.ci95["C1"]
     assert lo < wlf.params["C1"] < hi and wlf.params["C2"] > sh.T_ref - sh.temperature[0]
-    # the Prony curve follows the measured master curve: the storage within its scatter (~9 %;
-    # measured rms 0.032 with the default's instrument weights), the loss, which those weights let
-    # go on the plateaus where it contradicts the storage (docs/dma.md), to rms 0.29 (all: 0.207)
-    rms = np.sqrt(np.mean(pf.residuals**2, axis=0))
-    assert rms[0] < 0.09 and rms[1] < 0.35 and pf.rms < 0.25 and pf.n_terms >= 10
+    # the Prony curve follows the measured master curve (its scatter: ~9 % in G', ~19 % in G'')
+    assert pf.rms < 0.2 and pf.n_terms >= 10
     # physical bounds: G_inf near the rubbery plateau, G_0 near the glassy one (E/3)
     assert 0.5 < float(pf.material.G_inf) / (256.5e6 / 3) < 1.5
     assert 0.8 < float(pf.material.glassy_modulus()) / (9228.6e6 / 3) < 1.6
@@ -1025,7 +1022,7 @@ def test_smoothed_prony_on_the_shipped_data():
     plain, smooth = jr.fit_prony(mc, smoothness=None), jr.fit_prony(mc, smoothness=1.0)
     assert _loss_extrema(plain.material, lo, hi) > 30 and _loss_extrema(smooth.material, lo, hi) <= 8
     assert smooth.rms < plain.rms + 0.02
-    # the default (SMOOTHNESS = 3) is as smooth (measured: 3 extrema, rms 0.207; the fewest terms 38, 0.217)
+    # the default (SMOOTHNESS = 3) is as smooth (measured: 3 extrema; the fewest terms 38)
     default = jr.fit_prony(mc)
     assert default.n_terms == smooth.n_terms and _loss_extrema(default.material, lo, hi) <= 5
     assert default.rms < plain.rms + 0.02
@@ -1075,28 +1072,32 @@ def test_phase_error_model_leaves_a_kk_consistent_plateau_unbiased():
         mag = np.abs(g) * (1 + 0.01 * rng.standard_normal(w.size))
         delta = np.angle(g) + math.radians(0.1) * (rng.standard_normal(w.size) + offset / math.radians(0.1))
         mc = jr.materials.MasterCurve(w, mag * np.cos(delta), mag * np.sin(delta), np.zeros(w.size, int), 293.15)
-        for phase_sigma in (0.0, jr.materials.prony.PHASE_SIGMA):
+        for phase_sigma in (0.0, jr.materials.prony.INSTRUMENT_PHASE_SIGMA):
             fit = np.asarray(jr.complex_modulus(jr.fit_prony(mc, phase_sigma=phase_sigma).material, w[top])).real
             assert abs(np.mean(fit / g.real[top] - 1)) < 0.02, (offset, phase_sigma)
 
 
-def test_default_error_model_lowers_the_glassy_bias_of_the_shipped_data():
+def test_instrument_error_model_trades_the_glassy_bias_for_the_transition_loss():
     """On the shipped master curve, whose glassy loss asks for more storage than was measured (a
     loss-only fit implies +29 %, benchmarks/prony_smoothness.py), weighing storage and loss
-    alike puts the coldest set's storage +19.5 % high; the default error model (0.1 deg) lowers
-    that to less than half (measured +8.4 %), still above the storage-only fit (+0.3 %), and fits
-    the loss near its peak (tan delta above half its maximum) no worse (rms 0.064 against 0.079).
-    (The price, measured and documented in docs/dma.md: the loss at tan delta 0.02-0.1 lies 28 %
-    low against 13 %.)"""
+    alike (the default) puts the coldest set's storage +19.5 % high; the instrument error model
+    (0.1 deg) lowers that to less than half (measured +8.4 %) and fits the loss near its peak (tan
+    delta above half its maximum) no worse (rms 0.064 against 0.079), but puts the loss at tan
+    delta 0.02-0.1 lower (mean log residual measured -0.32 against -0.14), which is why it is not
+    the default (docs/dma.md)."""
     sw = jr.read_dma_sweeps(DATA)
     mc = jr.master_curve(sw, jr.materials.fit_shift_factors(sw))
     cold, tan = mc.set == 0, mc.loss / mc.storage
     peak = tan >= 0.5 * tan.max()
-    bias, peak_rms = {}, {}
-    for p in (0.0, jr.materials.prony.PHASE_SIGMA):
+    band = (tan >= 0.02) & (tan < 0.1)
+    bias, peak_rms, band_bias = {}, {}, {}
+    model = jr.materials.prony.INSTRUMENT_PHASE_SIGMA
+    assert jr.materials.prony.PHASE_SIGMA == 0.0  # the default weighs storage and loss alike
+    for p in (0.0, model):
         pf = jr.fit_prony(mc, phase_sigma=p)
         bias[p] = np.mean(np.asarray(jr.complex_modulus(pf.material, mc.omega[cold])).real / mc.storage[cold] - 1)
         peak_rms[p] = np.sqrt(np.mean(pf.residuals[peak, 1] ** 2))
-    default = jr.materials.prony.PHASE_SIGMA
-    assert 0.0 < bias[default] < 0.5 * bias[0.0] and bias[0.0] > 0.15
-    assert peak_rms[default] <= peak_rms[0.0]
+        band_bias[p] = np.mean(pf.residuals[band, 1])
+    assert 0.0 < bias[model] < 0.5 * bias[0.0] and bias[0.0] > 0.15
+    assert peak_rms[model] <= peak_rms[0.0]
+    assert band_bias[model] < band_bias[0.0] - 0.1 and band_bias[0.0] > -0.2

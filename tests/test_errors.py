@@ -141,6 +141,25 @@ def test_second_process_loads_the_compiled_program_from_the_cache(tmp_path):
     assert sorted(p.name for p in cache.rglob("*") if p.is_file()) == files  # nothing compiled anew
 
 
+def test_import_before_jax_quiets_xla_log_only_with_the_cache_on():
+    """``import jaxroll`` before JAX sets TF_CPP_MIN_LOG_LEVEL=3 (XLA's false SIGILL lines on
+    loading cached programs) when the cache is on and the variable unset; JAX itself sets 1."""
+    code = "import sys, os\nif sys.argv[1] == 'jax': import jax\nimport jaxroll\nprint(os.environ['TF_CPP_MIN_LOG_LEVEL'])"
+    base = {k: v for k, v in os.environ.items() if k not in ("TF_CPP_MIN_LOG_LEVEL", "JAXROLL_COMPILATION_CACHE")}
+    base["PYTHONPATH"] = str(ROOT) + os.pathsep + base.get("PYTHONPATH", "")
+
+    def level(first, **env):
+        out = subprocess.run([sys.executable, "-c", code, first], env=base | env, capture_output=True, text=True,
+                             timeout=300)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.strip().splitlines()[-1]
+
+    assert level("jaxroll") == "3"
+    assert level("jax") == "1"  # JAX was first: its own default
+    assert level("jaxroll", JAXROLL_COMPILATION_CACHE="0") == "1"
+    assert level("jaxroll", TF_CPP_MIN_LOG_LEVEL="0") == "0"
+
+
 # ------------------------------------------------------------------ memory budget
 
 GiB = 2**30

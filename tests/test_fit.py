@@ -205,6 +205,23 @@ def test_csv_bom_unknown_columns_and_repeated_points(tmp_path):
     assert r.value.tolist() == [0.01, 0.012] and r.sigma is None
 
 
+def test_profile_intervals_match_the_linearised_ones_where_the_model_is_nearly_linear():
+    """DMA data determine G0, tau and f to about 1 %, where the log-parameter model is nearly
+    linear: the profile-likelihood endpoints (``intervals="profile"``) must agree with the
+    linearised ones to a small share of the interval (the difference is second order in the
+    relative error, ~1e-4 in log p, plus the endpoint tolerance of 0.05 in the signed root,
+    2.5 % of the half-width; measured: the profile accepts its first point, the linearised
+    endpoint, on every side), and the estimate is the same fit."""
+    start = jr.StandardLinearSolid(1e6, 1.0, 0.3)
+    lin = fit_material(initial=start, dma=_dma(0))
+    prof = fit_material(initial=start, dma=_dma(0), intervals="profile")
+    for n in ("G0", "tau", "f"):
+        assert float(prof.params[n]) == pytest.approx(float(lin.params[n]), rel=1e-9)
+        half = 0.5 * np.log(float(lin.ci95[n][1]) / float(lin.ci95[n][0]))
+        for a, b in zip(prof.ci95[n], lin.ci95[n]):
+            assert abs(np.log(float(a) / float(b))) < 0.05 * half, (n, prof.ci95[n], lin.ci95[n])
+
+
 def test_bad_fit_arguments():
     with pytest.raises(ValueError, match="nothing to fit"):
         fit_material(initial=TRUE)
@@ -212,6 +229,8 @@ def test_bad_fit_arguments():
         fit_material(initial=TRUE, dma=_dma(0), free=("G0", "eta"))
     with pytest.raises(ValueError, match="layer= and radius="):
         fit_material(RollingData(np.array([0.1]), np.array([10.0]), np.array([0.01])), initial=TRUE)
+    with pytest.raises(ValueError, match="intervals must be"):
+        fit_material(initial=TRUE, dma=_dma(0), intervals="likelihood")
 
 
 # ------------------------------------------------------------- rolling-resistance fits

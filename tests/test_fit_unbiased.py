@@ -17,7 +17,7 @@ from scipy.stats import binom
 
 import jaxroll as jr
 from jaxroll.contact import Dense
-from jaxroll.identify.fit import (MAX_REGRIDS, REGRID_FACTOR, IdentifiabilityWarning, RollingData, _resolve_for_fit,
+from jaxroll.identify.fit import (MAX_REFITS, REGRID_FACTOR, IdentifiabilityWarning, RollingData, _resolve_for_fit,
                                   fit_material, read_rolling_csv)
 from jaxroll.methods import default_method
 
@@ -125,9 +125,45 @@ def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
         assert isinstance(f.method.grid, jr.FixedGrid)
         _, own = _resolve_for_fit(default_method("cylinder", fit=True), f.material, HALF, R, data, "cylinder")
         assert max(own.spacing / f.method.grid.spacing, f.method.grid.spacing / own.spacing) <= REGRID_FACTOR
-        assert len(f.starts) <= 1 + MAX_REGRIDS
+        assert len(f.starts) <= 1 + MAX_REFITS
     hits = sum(_covered(f) for f in fits)
     assert hits >= 7, [(f.params, f.ci95) for f in fits]
+
+
+def test_profile_endpoints_match_the_exact_likelihood_ratio_interval():
+    """``_profile`` on a problem whose profile likelihood is known in closed form: a straight line
+    ``y = c + b x`` (Gaussian noise, sigma known) fitted as ``c = exp(u0)``, ``b = u1``. Minimised
+    over ``b``, the cost is quadratic in ``c``: ``C_min + (c - c_hat)^2/(2 var_c)``, so the 95 %
+    endpoints are exactly ``u0 = log(c_hat -+ 1.96 sd_c)`` (not the linearised
+    ``log c_hat -+ 1.96 sd_c/c_hat``: 0.016 apart here), and those of ``b`` are
+    ``b_hat -+ 1.96 sd_b`` (linear in b)."""
+    from jaxroll._lsq import Z95
+    from jaxroll.identify.fit import PROFILE_ROOT_TOL, _profile
+
+    x, s = np.linspace(-1.0, 1.0, 12), 0.3
+    y = 1.0 + 0.5 * x + s * np.random.default_rng(0).standard_normal(x.size)
+    A = np.stack([np.ones_like(x), x], axis=1)
+    (c, b), cov = np.linalg.lstsq(A, y, rcond=None)[0], s**2 * np.linalg.inv(A.T @ A)
+    sd_c, sd_b = np.sqrt(np.diag(cov))
+
+    def residuals(u):
+        return (np.exp(u[0]) + u[1] * x - y) / s
+
+    def jacobian(u):
+        return np.stack([np.exp(u[0]) * np.ones_like(x), x], axis=1) / s
+
+    u = np.array([np.log(c), b])
+    J = jacobian(u)
+    low, high, notes, lower = _profile(residuals, jacobian, u, 0.5 * np.sum(residuals(u) ** 2),
+                                       np.linalg.inv(J.T @ J), 1.0, rtol=1e-12, max_evaluations=100)
+    assert lower is None and not notes
+    # an endpoint is accepted where the signed root is within PROFILE_ROOT_TOL of Z95: in u0 that
+    # is PROFILE_ROOT_TOL sd_c / c at the endpoint, in b PROFILE_ROOT_TOL sd_b
+    for end, exact in ((low, c - Z95 * sd_c), (high, c + Z95 * sd_c)):
+        assert end[0] == pytest.approx(np.log(exact), abs=PROFILE_ROOT_TOL * sd_c / exact)
+    assert abs(low[0] - (np.log(c) - Z95 * sd_c / c)) > 0.01  # the linearised endpoint is not it
+    assert low[1] == pytest.approx(b - Z95 * sd_b, abs=PROFILE_ROOT_TOL * sd_b)
+    assert high[1] == pytest.approx(b + Z95 * sd_b, abs=PROFILE_ROOT_TOL * sd_b)
 
 
 def _coverage(geometry, n):
@@ -154,8 +190,11 @@ def test_sixty_point_fit_recovers_the_truth(geometry):
 @pytest.mark.slow
 @pytest.mark.parametrize("geometry,n", [("cylinder", 30), ("sphere", 20)])
 def test_interval_coverage(geometry, n):
-    """Measured (benchmarks/README.md, "The default fit's cost"): the cylinder's intervals hold the
-    truth in about 4 of 5 draws, below this bound (the model's grid error along the valley)."""
+    """The default fit's profile-likelihood intervals over seeded noise draws from the far start
+    (benchmarks/fit_coverage.py --draws records the same draws). The linearised intervals held
+    the truth in 20-21 of the first 27 cylinder draws, below this bound: along the curved
+    G0-tau-f valley they were too narrow, and fits stopped in a second minimum (fitting/README.md).
+    The sphere (about 20 times the cylinder's time per evaluation) was not run."""
     hits, lowest = _coverage(geometry, n)
     print(f"{geometry}: {hits} of {n} draws' intervals hold the truth")
     assert min(hits.values()) >= lowest, (hits, n)

@@ -163,7 +163,8 @@ def add_parser(sub) -> None:
                     default=None, help="absolute error of the instrument's phase angle [rad] "
                     "weighting the Prony fit's loss residuals by 1 / sqrt(modulus_sigma^2 + (phase_sigma / tan "
                     "delta)^2): the loss counts less where tan delta is small, on the glassy and rubbery plateaus "
-                    "(default 0.001745 = 0.1 deg; 0 weighs storage and loss alike)")
+                    "(default 0: storage and loss weighed alike; e.g. 0.001745 = 0.1 deg, an assumed instrument "
+                    "error; docs/dma.md, 'The glassy plateau')")
     mt.add_argument("--modulus-sigma", dest="modulus_sigma", type=positive("--modulus-sigma"),
                     default=None, help="relative error of the instrument's |E*| or |G*| (default 0.01)")
     mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
