@@ -1,5 +1,6 @@
 """The numbers the docs quote come from benchmarks/numbers.json, written by the benchmark scripts
-(``--record``): every generated block of README.md and benchmarks/README.md equals what
+(``--record``): every generated block of the files of ``render_docs.FILES`` (README.md,
+benchmarks/README.md, docs/validation.md, docs/dma.md) equals what
 benchmarks/render_docs.py writes from that file, so a re-measured number cannot leave a stale
 copy in the docs, and a hand edit of a generated number fails here."""
 
@@ -57,7 +58,8 @@ def test_recorded_default_grid_errors_are_bounded_by_their_truncation():
 
 def test_recorded_edge_smoothing_bias_within_the_envelope_the_truncation_uses():
     # docs/validation.md's edge-smoothing table (edge_smoothing_bias.py --record) against the
-    # envelopes of jaxroll.grids that the truncation doubles: a re-measured bias above them fails here
+    # envelopes of jaxroll.grids that the truncation doubles: a re-measured bias above them fails
+    # here, and so does a record whose grids the rule no longer gives (re-run the script)
     from jaxroll import grids
 
     runs = json.loads((REPO / "benchmarks" / "numbers.json").read_text())["edge_smoothing"]["runs"]
@@ -65,7 +67,10 @@ def test_recorded_edge_smoothing_bias_within_the_envelope_the_truncation_uses():
     for key, run in runs.items():
         model = "sphere3d" if key.startswith("sphere") else "cylinder"
         k = run["kappa"]
+        rule = grids.sphere_cells_per_radius if model == "sphere3d" else grids.cylinder_cells_per_radius
         for r in run["rows"]:
+            if key.split("-", 1)[1].startswith("f"):  # a standard linear solid (breadth 0): on today's rule
+                assert round(r["cells"]) == rule(r["zeta"]), (key, r["zeta"], r["cells"])
             assert abs(r["extrapolated"]) <= 100 * grids.EDGE_EXTRAPOLATED_BIAS[model], (key, r)
             assert abs(r["kappa"]) <= 100 * grids.EDGE_BIAS_SCALE[model] * k**1.5, (key, r)
             assert abs(r["kappa2"]) <= 100 * grids.EDGE_BIAS_SCALE[model] * (2 * k) ** 1.5, (key, r)
