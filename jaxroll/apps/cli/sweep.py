@@ -89,7 +89,7 @@ def run(args) -> int:
         return r.value, r.result
 
     # the full models' points one after the other: vmapped, each while loop of the contact solver
-    # would run every lane to the slowest lane's count (benchmarks/README.md, "Batched full models")
+    # would run every lane to the slowest lane's count (benchmarks/LOG.md, "Batched full models")
     values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=args.progress,
                                                      vectorize=not isinstance(method, jr.Full)))
     names = list(axes)
