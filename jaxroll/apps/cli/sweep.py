@@ -88,8 +88,9 @@ def run(args) -> int:
                                   method=method, throw=False)
         return r.value, r.result
 
-    # the full models' points one after the other: vmapped, each while loop of the contact solver
-    # would run every lane to the slowest lane's count (benchmarks/LOG.md, "Batched full models")
+    # the full models' points one after the other (jax.vmap of Full now warm-starts its lanes in
+    # one scan, docs/design.md sec. 4, but that path was not timed against this one on an idle
+    # machine: benchmarks/LOG.md, "Batched full models")
     values, codes = (np.asarray(a) for a in jr.sweep(one, jr.Grid(**axes), progress=args.progress,
                                                      vectorize=not isinstance(method, jr.Full)))
     names = list(axes)
