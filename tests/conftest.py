@@ -10,12 +10,9 @@ inherit the environment:
   defaults). Measured in CPU seconds on test_fit.py and test_defaults.py (one process, load
   average 11-13, both runs side by side): the full-model fits, the most run-bound tests of the
   default suite, fell from 22.3 to 16.6 s and 37.3 to 30.7 s, a direct-method fit from 10.0 to
-  9.2 s, the default-method tests from 13.9 to 10.9 s and 12.2 to 9.4 s; on test_aperiodic.py
-  (load average 17) a 10-term Prony spectrum in three models 30.5 -> 23.4 s, but its run-bound
-  periodic lattice sums 18.1 -> 24.5 s: the tests named in :data:`RUN_BOUND_TESTS` compile with
-  jax's defaults. It is set in this process only (a jax flag, read at every compilation, not
-  ``XLA_FLAGS``): the interpreters that the tests start choose their own flags
-  (``tests/_cases.py``, ``XLA_LIGHT``).
+  9.2 s, the default-method tests from 13.9 to 10.9 s and 12.2 to 9.4 s. It is set in this
+  process only (a jax flag, not ``XLA_FLAGS``): the interpreters that the tests start choose
+  their own flags (``tests/_cases.py``, ``XLA_LIGHT``).
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
@@ -62,27 +59,8 @@ import jaxroll  # noqa: E402, F401  (enables float64)
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
-#: Compile with XLA's optimisations in this process (otherwise only the tests of
-#: :data:`RUN_BOUND_TESTS` do; see the module docstring)
-OPTIMIZE_ALL = bool(os.environ.get("JAXROLL_TEST_PLAIN_XLA") or os.environ.get("JAXROLL_TEST_XLA_OPTIMIZE"))
-#: Tests (node id prefixes) whose programs run longer than they compile: measured slower with
-#: ``jax_disable_most_optimizations`` (module docstring)
-RUN_BOUND_TESTS = ("tests/test_aperiodic.py::test_surface_periodic_sums_converge_at_second_order_in_the_period",)
-jax.config.update("jax_disable_most_optimizations", not OPTIMIZE_ALL)
-
-
-@pytest.fixture(autouse=True)
-def _xla_optimisation(request):
-    """Full XLA optimisation for the tests of :data:`RUN_BOUND_TESTS` (the flag is read at every
-    compilation; programs compiled before keep their own)."""
-    if OPTIMIZE_ALL or not request.node.nodeid.startswith(RUN_BOUND_TESTS):
-        yield
-        return
-    jax.config.update("jax_disable_most_optimizations", False)
-    try:
-        yield
-    finally:
-        jax.config.update("jax_disable_most_optimizations", True)
+if not (os.environ.get("JAXROLL_TEST_PLAIN_XLA") or os.environ.get("JAXROLL_TEST_XLA_OPTIMIZE")):
+    jax.config.update("jax_disable_most_optimizations", True)  # see the module docstring
 
 
 # What the session compiled and what it loaded from the persistent cache (this process only;
