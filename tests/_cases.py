@@ -48,7 +48,7 @@ def central_difference(fun, params: dict, name: str, rel_step: float = 1e-5) -> 
 #: kernels, README blocks, CLI commands), whose programs run a few points each, so that compiling
 #: them is nearly all their cost: measured on notebook 02 (quick), 70 -> 47 s of CPU. Programs
 #: then run up to 2x slower: a run-bound interpreter costs more (notebook 03's fits, 42.6 ->
-#: 63.9 s), so a fit's interpreter keeps jax's defaults (the test processes themselves: tests/conftest.py).
+#: 63.9 s), and the test process itself keeps the default (tests/conftest.py, ``JAXROLL_TEST_XLA_O0``).
 XLA_LIGHT = "--xla_backend_optimization_level=0"
 
 

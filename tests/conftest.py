@@ -5,14 +5,11 @@ and then runs in milliseconds). Settings made here before jax starts cut that ti
 tests and for every subprocess they start (README blocks, CLI commands, notebook kernels), which
 inherit the environment:
 
-- The test processes compile with ``jax_disable_most_optimizations`` (XLA:CPU at backend
-  optimisation level 0, without LLVM's expensive passes; ``JAXROLL_TEST_XLA_OPTIMIZE=1``: jax's
-  defaults). Measured in CPU seconds on test_fit.py and test_defaults.py (one process, load
-  average 11-13, both runs side by side): the full-model fits, the most run-bound tests of the
-  default suite, fell from 22.3 to 16.6 s and 37.3 to 30.7 s, a direct-method fit from 10.0 to
-  9.2 s, the default-method tests from 13.9 to 10.9 s and 12.2 to 9.4 s. It is set in this
-  process only (a jax flag, not ``XLA_FLAGS``): the interpreters that the tests start choose
-  their own flags (``tests/_cases.py``, ``XLA_LIGHT``).
+- Opt-in (``JAXROLL_TEST_XLA_O0=1``): ``--xla_backend_optimization_level=0``, XLA:CPU without
+  LLVM's optimisation passes. Compile-bound files compile a quarter to a third faster, but
+  run-bound programs run up to 2x slower or worse, so it is not the default here; the notebook
+  kernels and README interpreters that the tests start, which run a few points per program, get
+  it always (``tests/_cases.py``, ``XLA_LIGHT``).
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
@@ -24,7 +21,7 @@ inherit the environment:
 Set ``JAXROLL_TEST_CPU_LOG=PREFIX`` to write every test's CPU time (user + system, of the test
 process and of the subprocesses it waited for; the steady figure on a shared machine) and wall time
 to ``PREFIX.<worker>`` (``benchmarks/suite_cost.py`` runs the suite so and sums it per file).
-Set ``JAXROLL_TEST_PLAIN_XLA=1`` to run with jax's defaults (full optimisation, no cache), for comparison,
+Set ``JAXROLL_TEST_PLAIN_XLA=1`` to run with jax's defaults (no flag, no cache), for comparison,
 and ``JAXROLL_TEST_CLEAR_EVERY_MODULE=1`` to drop the compiled programs after every module (see
 :func:`_release_compiled_programs`). The run ends with a line that counts the programs compiled
 and those loaded from the persistent cache, summed over the xdist workers.
@@ -37,6 +34,8 @@ import tempfile
 import time
 
 if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
+    if os.environ.get("JAXROLL_TEST_XLA_O0"):  # opt-in: see the module docstring
+        os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --xla_backend_optimization_level=0".strip()
     # XLA:CPU logs three lines per program it loads from a persistent cache on some x86 CPUs
     # ("Loading XLA:CPU AOT result ... prefer-no-gather", an upstream XLA message): keep them out
     # of the subprocesses' stderr that CLI tests read
@@ -59,8 +58,6 @@ import jaxroll  # noqa: E402, F401  (enables float64)
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
-if not (os.environ.get("JAXROLL_TEST_PLAIN_XLA") or os.environ.get("JAXROLL_TEST_XLA_OPTIMIZE")):
-    jax.config.update("jax_disable_most_optimizations", True)  # see the module docstring
 
 
 # What the session compiled and what it loaded from the persistent cache (this process only;
