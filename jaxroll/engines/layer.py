@@ -138,21 +138,23 @@ class Layer(eqx.Module):
 
 def _sinhc_minus_one(y):
     """``(sinh y - y)/y = sinh(y)/y - 1`` for complex ``y`` with ``|y|`` up to a few tens,
-    accurate near 0 (14-term series for ``|y| < 1``)."""
+    accurate near 0 (the 13-term series :func:`_sinhc_series` for ``|y| < 1``)."""
     small = jnp.abs(y) < 1.0
     ys = where_safe(small, y, 0.5)
-    y2 = ys * ys
-    term = y2 / 6.0
-    total = term
-    for k in range(2, 14):
-        term = term * y2 / ((2 * k) * (2 * k + 1))
-        total = total + term
     yl = where_safe(small, 1.0, y)
-    return jnp.where(small, total, (jnp.sinh(yl) - yl) / yl)
+    return jnp.where(small, _sinhc_series(ys * ys), (jnp.sinh(yl) - yl) / yl)
 
 
 #: ``1/(2k+1)!`` for ``k = 1..13``: the series of ``(sinh x - x)/x = sum_k x^{2k}/(2k+1)!``.
 _SINHC_SERIES = tuple(1.0 / math.factorial(2 * k + 1) for k in range(1, 14))
+
+
+def _sinhc_series(y2):
+    """``(sinh y - y)/y = sum_k y^{2k}/(2k+1)!`` from ``y2 = y^2`` (Horner; for ``|y| < 1``)."""
+    poly = _SINHC_SERIES[-1]
+    for c in _SINHC_SERIES[-2::-1]:
+        poly = poly * y2 + c
+    return y2 * poly
 
 
 def _scaled_sinhc_minus_one(x, e=None):
@@ -163,12 +165,8 @@ def _scaled_sinhc_minus_one(x, e=None):
     e = jnp.exp(-x) if e is None else e
     small = x < 1.0
     xs = where_safe(small, x, 0.5)
-    y2 = xs * xs
-    poly = _SINHC_SERIES[-1]
-    for c in _SINHC_SERIES[-2::-1]:
-        poly = poly * y2 + c
     xl = where_safe(small, 1.0, x)
-    return jnp.where(small, e * y2 * poly, (0.5 * (1.0 - e * e) - xl * e) / xl)
+    return jnp.where(small, e * _sinhc_series(xs * xs), (0.5 * (1.0 - e * e) - xl * e) / xl)
 
 
 def _halfspace_factor(s):
