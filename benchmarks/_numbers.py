@@ -37,6 +37,8 @@ def machine() -> dict:
         commit += "+dirty" if commit and changed else ""
     except OSError:
         commit = ""
+    # a copy of the tree without its git folder (a remote GPU machine): the commit it was copied at
+    commit = commit or os.environ.get("JAXROLL_COMMIT", "")
     import jax
 
     return {

@@ -261,6 +261,8 @@ def main():
     ap.add_argument("--only", choices=["reference", "map"], help="only the reference-case rows or the map rows")
     ap.add_argument("--record", action="store_true",
                     help="store the rows in benchmarks/numbers.json (section batched, or batched_quick with --quick)")
+    ap.add_argument("--section", help="numbers.json section to record into (default: batched, batched_quick with "
+                    "--quick; a GPU run records e.g. batched_gpu_reference and batched_gpu_map)")
     ap.add_argument("--vmap-map", action="store_true",
                     help="also time the map program before batching (vmapped value_and_grad of the front door)")
     args = ap.parse_args()
@@ -287,7 +289,7 @@ def main():
         command = "python benchmarks/bench_batched.py" + " ".join(
             [""] + (["--quick"] if args.quick else []) + ([f"--only {args.only}"] if args.only else [])
             + [f"--repeat {args.repeat}"])
-        record("batched_quick" if args.quick else "batched", {
+        record(args.section or ("batched_quick" if args.quick else "batched"), {
             "command": command, "load_start": load_start, "load_end": round(os.getloadavg()[0], 1),
             "rows": [dict(entry=name, per_point_s=pp, compile_s=comp, ratio=ratio, note=note)
                      for name, pp, comp, ratio, note in rows]})
