@@ -260,9 +260,10 @@ def main():
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--only", choices=["reference", "map"], help="only the reference-case rows or the map rows")
     ap.add_argument("--record", action="store_true",
-                    help="store the rows in benchmarks/numbers.json (section batched, or batched_quick with --quick)")
-    ap.add_argument("--section", help="numbers.json section to record into (default: batched, batched_quick with "
-                    "--quick; a GPU run records e.g. batched_gpu_reference and batched_gpu_map)")
+                    help="store the rows in benchmarks/numbers.json (see --section)")
+    ap.add_argument("--section", help="numbers.json section to record into (default: batched[_quick][_gpu]_"
+                    "<only>, e.g. batched_map, batched_gpu_reference; benchmarks/render_docs.py draws the CPU and "
+                    "the GPU table from them)")
     ap.add_argument("--vmap-map", action="store_true",
                     help="also time the map program before batching (vmapped value_and_grad of the front door)")
     args = ap.parse_args()
@@ -289,7 +290,9 @@ def main():
         command = "python benchmarks/bench_batched.py" + " ".join(
             [""] + (["--quick"] if args.quick else []) + ([f"--only {args.only}"] if args.only else [])
             + [f"--repeat {args.repeat}"])
-        record(args.section or ("batched_quick" if args.quick else "batched"), {
+        platform = "" if jax.devices()[0].platform == "cpu" else f"_{jax.devices()[0].platform}"
+        section = f"batched{'_quick' if args.quick else ''}{platform}_{args.only or 'all'}"
+        record(args.section or section, {
             "command": command, "load_start": load_start, "load_end": round(os.getloadavg()[0], 1),
             "rows": [dict(entry=name, per_point_s=pp, compile_s=comp, ratio=ratio, note=note)
                      for name, pp, comp, ratio, note in rows]})

@@ -113,20 +113,44 @@ def first_use(numbers: dict) -> str:
             f"commit {m['commit']}): " + "; ".join(parts) + ".")
 
 
+def _batched_parts(numbers: dict, prefix: str) -> list:
+    """The recorded ``bench_batched.py`` runs of one device, reference-case rows first."""
+    return [numbers[k] for k in (f"{prefix}_all", f"{prefix}_reference", f"{prefix}_map") if k in numbers]
+
+
+def _batched_header(sec: dict) -> str:
+    return (f"`{sec['command']}`, {_machine(sec['measured'])}; {sec['load_start']:g} at the start of the run")
+
+
 def batched_table(numbers: dict) -> str:
-    sec = numbers["batched"]
-    m = sec["measured"]
-    lines = [
-        f"`{sec['command']}`, {_machine(m)}; {sec['load_start']:g} at the start of the run. The machine is "
-        "shared: each entry ran alternately with its baseline in the same process, so compare the ratio column. "
-        "Medians; compile ahead of time, apart.",
-        "",
-        "| entry | per point | compile | ratio to the table | note |",
-        "|---|---|---|---|---|",
-    ]
-    for r in sec["rows"]:
-        lines.append(f"| {r['entry']} | {r['per_point_s'] * 1e3:.2f} ms | {r['compile_s']:.1f} s | {r['ratio']:.2f}x "
-                     f"| {r['note']} |")
+    """Every batched entry point on the CPU, per point and against the warm-started table."""
+    parts = _batched_parts(numbers, "batched")
+    lines = ["; ".join(_batched_header(sec) for sec in parts) + ". The machine is shared: each entry ran "
+             "alternately with its baseline in the same process, so compare the ratio column. Medians; compile "
+             "ahead of time, apart.", "",
+             "| entry | per point | compile | ratio to the table | note |", "|---|---|---|---|---|"]
+    for sec in parts:
+        for r in sec["rows"]:
+            lines.append(f"| {r['entry']} | {r['per_point_s'] * 1e3:.2f} ms | {r['compile_s']:.1f} s "
+                         f"| {r['ratio']:.2f}x | {r['note']} |")
+    return "\n".join(lines)
+
+
+def batched_gpu_table(numbers: dict) -> str:
+    """The same entry points on a GPU, with the CPU's figure where the CPU table has the entry."""
+    parts = _batched_parts(numbers, "batched_gpu")
+    cpu = {r["entry"]: r for sec in _batched_parts(numbers, "batched") for r in sec["rows"]}
+    jax_version = parts[0]["measured"]["jax"] if parts else ""
+    lines = ["; ".join(_batched_header(sec) for sec in parts) + f". jax {jax_version} is the one installed on that "
+             "machine (the project's pin below 0.10 guards against a deadlock on the CPU). Medians; compile ahead of "
+             "time, apart; \"GPU / CPU\" divides the GPU's time per point by the CPU's in the table above.", "",
+             "| entry | per point | compile | ratio to the table | GPU / CPU | note |", "|---|---|---|---|---|---|"]
+    for sec in parts:
+        for r in sec["rows"]:
+            c = cpu.get(r["entry"])
+            vs = f"{r['per_point_s'] / c['per_point_s']:.2f}x" if c else "not on the CPU table"
+            lines.append(f"| {r['entry']} | {r['per_point_s'] * 1e3:.2f} ms | {r['compile_s']:.1f} s "
+                         f"| {r['ratio']:.2f}x | {vs} | {r['note']} |")
     return "\n".join(lines)
 
 
@@ -341,6 +365,7 @@ BLOCKS = {
     "default-method-table": default_method_table,
     "first-use": first_use,
     "batched-table": batched_table,
+    "batched-gpu-table": batched_gpu_table,
     "slowest-tests": slowest_tests,
     "forms-convergence": forms_convergence,
     "default-grid-accuracy": default_grid_accuracy,
