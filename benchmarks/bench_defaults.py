@@ -23,7 +23,10 @@ rho = 1000 kg/m^3):
   solution (6 speeds x 2 loads, 1 % noise), start G0 = 1.5 MPa (one re-resolution of the grid);
   per point = time per fit / 12.
 
-    python benchmarks/bench_defaults.py [--quick] [--entries point-sphere,...] [--no-first]
+    python benchmarks/bench_defaults.py [--quick] [--entries point-sphere,...] [--no-first] [--record]
+
+``--record`` stores the rows in benchmarks/numbers.json (section ``defaults``), from which
+benchmarks/render_docs.py writes the first-call table of benchmarks/README.md.
 
 ``--quick``: the point entries only, first call with the cache off only.
 """
@@ -132,6 +135,7 @@ def main():
     ap.add_argument("--entries", default=",".join(ENTRIES))
     ap.add_argument("--quick", action="store_true", help="point entries; first call with the cache off only")
     ap.add_argument("--no-first", action="store_true", help="skip the fresh-process first calls")
+    ap.add_argument("--record", action="store_true", help="store the rows in benchmarks/numbers.json (section defaults)")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
@@ -142,6 +146,7 @@ def main():
     from _timing import summary
 
     print("entry | per point [s] | first call, cache off [s] | first call, cache on (second process) [s]")
+    load_start, rows = round(os.getloadavg()[0], 1), []
     for entry in entries:
         pp = per_point(entry)
         off = on = float("nan")
@@ -152,8 +157,15 @@ def main():
                     first_call(entry, cache)  # fills the cache
                     on = first_call(entry, cache)
         print(f"{entry} | {pp:.4f} | {off:.1f} | {on:.1f}", flush=True)
+        rows.append(dict(entry=entry, per_point_s=pp, first_cache_off_s=None if off != off else off,
+                         first_cache_on_s=None if on != on else on))
         summary(f"bench_defaults.py{' --quick' if args.quick else ''} ({entry})", pp, off, "", "",
                 f"default method (full model), per point; first call cache off {off:.1f} s, on {on:.1f} s")
+    if args.record:
+        from _numbers import record
+
+        record("defaults", {"command": " ".join(["python benchmarks/bench_defaults.py"] + [a for a in sys.argv[1:] if a != "--record"]),
+                            "load_start": load_start, "load_end": round(os.getloadavg()[0], 1), "rows": rows})
 
 
 if __name__ == "__main__":

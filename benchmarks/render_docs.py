@@ -154,6 +154,22 @@ def batched_gpu_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def defaults_table(numbers: dict) -> str:
+    """Time per point and first call in a fresh process of every entry point with its default method."""
+    sec = numbers["defaults"]
+    sec_s = lambda x: "not measured" if x is None else f"{x:.1f} s"  # noqa: E731
+    lines = [f"`{sec['command']}`, {_machine(sec['measured'])}; {sec['load_start']:g} at the start of the run. "
+             "First call: `import jaxroll`, the inputs and the first call, timed inside a new Python process, with "
+             "the persistent compilation cache off, and on in a second process after a first one filled a new "
+             "cache folder.", "",
+             "| entry | per point | first call, cache off | first call, cache on (second process) |",
+             "|---|---|---|---|"]
+    for r in sec["rows"]:
+        lines.append(f"| {r['entry']} | {r['per_point_s'] * 1e3:.1f} ms | {sec_s(r['first_cache_off_s'])} "
+                     f"| {sec_s(r['first_cache_on_s'])} |")
+    return "\n".join(lines)
+
+
 def slowest_tests(numbers: dict) -> str:
     """The 25 slowest tests of the recorded clean-clone suite run (pytest's ``--durations``, wall
     seconds inside one pytest-xdist worker)."""
@@ -366,6 +382,7 @@ BLOCKS = {
     "first-use": first_use,
     "batched-table": batched_table,
     "batched-gpu-table": batched_gpu_table,
+    "defaults-table": defaults_table,
     "slowest-tests": slowest_tests,
     "forms-convergence": forms_convergence,
     "default-grid-accuracy": default_grid_accuracy,
