@@ -120,11 +120,10 @@ def _refine(p, args):
 SMOOTH_TERMS_PER_DECADE = 3
 
 #: Default weight ``lambda`` of the smoothed fit's curvature penalty. Measured on the shipped
-#: master curve (``benchmarks/prony_smoothness.py``): weighing storage and loss alike, the
-#: rolling resistance of a 1 cm ball (10 N, H = 10 mm) from -40 to 100 degC at 1 mm/s and 1 m/s
-#: has one extremum in temperature (its peak) at ``lambda = 3``, 3-4 at ``lambda = 1`` and 13-16
-#: with the fewest-terms fit (one per decade); with the instrument weights (``phase_sigma`` 0.1
-#: deg) 1-2 at ``lambda`` 1 and 3 (the peak and one turn on the glassy side) against 15-17.
+#: master curve (``benchmarks/prony_smoothness.py --rolling``, tables in docs/dma.md): the
+#: rolling resistance of a 1 cm ball (10 N, H = 10 mm) from -40 to 100 degC turns in temperature
+#: at its peak and a few times on the glassy side, where it is small and flat, at ``lambda = 3``;
+#: more often at ``lambda = 1``, and with every term of the fewest-terms fit (one per decade).
 SMOOTHNESS = 3.0
 
 #: Relative error of the measured modulus ``|G*|`` [-] of the instrument error model: 1 %, an
