@@ -553,6 +553,22 @@ def test_save_load_round_trip(tmp_path, suffix):
     assert float(jr.load_material(tmp_path / f"a{suffix}")[1].activation_energy) == 1.5e5
 
 
+def test_saved_prony_fit_says_which_error_model_produced_it(tmp_path):
+    """A PronyFit saved as JSON carries its error model (phase_sigma [rad], modulus_sigma) and rms
+    in info["prony"], beside the caller's own info, and loads back as its material."""
+    import json
+
+    fit = jr.materials.PronyFit(material=_material(), residuals=np.zeros((3, 2)), rms=0.12, n_terms=3,
+                                phase_sigma=math.radians(0.1), modulus_sigma=0.02)
+    jr.save_material(tmp_path / "m.json", fit, info={"source": "test", "prony": {"smoothness": 3.0}})
+    info = json.loads((tmp_path / "m.json").read_text())["info"]
+    assert info["source"] == "test" and info["prony"] == {"phase_sigma": math.radians(0.1), "modulus_sigma": 0.02,
+                                                          "rms_log": 0.12, "n_terms": 3, "smoothness": 3.0}
+    np.testing.assert_array_equal(np.asarray(jr.load_material(tmp_path / "m.json")[0].G), np.asarray(fit.material.G))
+    jr.save_material(tmp_path / "m.csv", fit)  # a CSV holds the series alone
+    np.testing.assert_array_equal(np.asarray(jr.load_material(tmp_path / "m.csv")[0].tau), np.asarray(fit.material.tau))
+
+
 def test_abaqus_and_ansys_exports(tmp_path):
     mat, wlf = _material(), jr.WLF(C1=9.1, C2=105.3, T_ref=298.15)
     G0 = 1.25e6 + 3.5e6 + 1.1e7 + 2.2e8
