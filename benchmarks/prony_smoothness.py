@@ -20,9 +20,9 @@ for the fewest-terms fit, smoothness 1 and 3 (the default), and the default with
 error model (``phase_sigma`` 0.1 deg); and the change of R(T) between the two, by the direct
 method and by the full 3D model (5 K steps; 1 mm/s, 1 m/s).
 
-Run: ``python benchmarks/prony_smoothness.py [--record] [--rolling]`` (a minute; more with
---rolling). ``--record`` stores the tables in benchmarks/numbers.json (``prony_plateau``) for
-``benchmarks/render_docs.py``."""
+Run: ``python benchmarks/prony_smoothness.py [--rolling] [--record]`` (a minute; several with
+--rolling). ``--record`` stores the tables in benchmarks/numbers.json (``prony_plateau``; with
+``--rolling``, ``prony_rolling``) for ``benchmarks/render_docs.py``."""
 
 import sys
 from pathlib import Path
@@ -136,40 +136,69 @@ def smoothness_rows(mc):
     return out
 
 
+#: the fits of ``--rolling``: (name, fit_prony keywords); the full model runs the last two
+ROLLING_FITS = (("smoothness=None (fewest terms)", {"smoothness": None}), ("smoothness=1", {"smoothness": 1.0}),
+                ("smoothness=3 (default)", {}),
+                ("smoothness=3, phase_sigma 0.1 deg", {"phase_sigma": prony.INSTRUMENT_PHASE_SIGMA}))
+#: (method, temperature step [K], speeds [m/s]) of ``--rolling``
+ROLLING_RUNS = (("direct", 1.0, (1e-3, 0.1, 1.0)), ("full", 5.0, (1e-3, 1.0)))
+#: temperatures [degC] at which ``--rolling`` reports the change of R(T) by the error model
+CHANGE_AT = (-40, -35, 0, 25, 60, 100)
+
+
 def rolling(sw):
-    """Extrema of R(T) per fit and speed, and the change of R(T) from the default (phase_sigma = 0)
-    to the instrument error model: the direct method for every fit, the full model (5 K steps) for
-    those two."""
+    """Extrema of R(T) per fit and speed (the temperatures where dR/dT changes sign), and the
+    change of R(T) from the default (phase_sigma = 0) to the instrument error model: the direct
+    method for every fit, the full model (5 K steps) for those two. Returns the ``prony_rolling``
+    section of numbers.json."""
     shifts = jr.fit_shift_factors(sw, T_ref=298.15)
     shift, mc = jr.fit_wlf(shifts).shift, jr.master_curve(sw, shifts)
-    fits = {"smoothness None": jr.fit_prony(mc, smoothness=None), "smoothness 1": jr.fit_prony(mc, smoothness=1.0),
-            "default": jr.fit_prony(mc), "phase_sigma 0.1 deg": jr.fit_prony(mc, phase_sigma=prony.INSTRUMENT_PHASE_SIGMA)}
-    for method, step, speeds in (("direct", 1.0, (1e-3, 0.1, 1.0)), ("full", 5.0, (1e-3, 1.0))):
+    fits = {name: jr.fit_prony(mc, **kw) for name, kw in ROLLING_FITS}
+    default, model = ROLLING_FITS[2][0], ROLLING_FITS[3][0]
+    extrema_rows, change_rows = [], []
+    for method, step, speeds in ROLLING_RUNS:
         T = np.arange(233.15, 373.15 + step / 2, step)
         R = {}
         for name, pf in fits.items():
-            if method == "full" and name not in ("default", "phase_sigma 0.1 deg"):
+            if method == "full" and name not in (default, model):
                 continue
             m = jr.resistance_map(pf.material, shift, jr.Layer(H=0.01), radius=0.01, load=10.0, temperatures=T,
                                   speeds=np.array(speeds), method=None if method == "full" else method)
             d, valid, R[name] = np.asarray(m.dR_dT), np.asarray(m.valid), np.asarray(m.value)
             for j, V in enumerate(speeds):
                 at = T[np.flatnonzero(np.diff(np.sign(d[:, j])) != 0)] - 273.15
-                print(f"{method:6s} {name:24s} ({pf.n_terms:3d} terms) V {V:g} m/s: {len(at):2d} sign changes of "
+                extrema_rows.append({"fit": name, "terms": pf.n_terms, "method": method, "step": step, "speed": V,
+                                     "at_degC": [round(float(t), 1) for t in at], "valid": int(valid[:, j].sum()),
+                                     "points": len(T)})
+                print(f"{method:6s} {name:34s} ({pf.n_terms:3d} terms) V {V:g} m/s: {len(at):2d} sign changes of "
                       f"dR/dT at {np.round(at).astype(int).tolist()} degC; {int(valid[:, j].sum())} of {len(T)} valid",
                       flush=True)
-        change = R["phase_sigma 0.1 deg"] / R["default"] - 1
+        change = R[model] / R[default] - 1
         for j, V in enumerate(speeds):
             k = int(np.argmax(np.abs(change[:, j])))
-            print(f"{method:6s} R(T) phase_sigma 0.1 deg / default - 1 at V {V:g} m/s: median {np.median(change[:, j]):+.1%}, "
-                  f"largest {change[k, j]:+.1%} at {T[k] - 273.15:.0f} degC; at -40/0/25/60/100 degC: "
-                  + ", ".join(f"{change[np.argmin(np.abs(T - 273.15 - t)), j]:+.1%}" for t in (-40, 0, 25, 60, 100)),
-                  flush=True)
+            at = {f"{t:d}": float(change[np.argmin(np.abs(T - 273.15 - t)), j]) for t in CHANGE_AT}
+            change_rows.append({"method": method, "speed": V, "median": float(np.median(change[:, j])),
+                                "largest": float(change[k, j]), "largest_at_degC": round(float(T[k] - 273.15), 1),
+                                "at": at})
+            print(f"{method:6s} R(T) phase_sigma 0.1 deg / default - 1 at V {V:g} m/s: median "
+                  f"{np.median(change[:, j]):+.1%}, largest {change[k, j]:+.1%} at {T[k] - 273.15:.0f} degC; at "
+                  + ", ".join(f"{t} degC {v:+.1%}" for t, v in at.items()), flush=True)
+    return {"command": "python benchmarks/prony_smoothness.py --rolling --record", "extrema": extrema_rows,
+            "change": change_rows}
+
+
+def _record(section, data):
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import _numbers
+
+    _numbers.record(section, data)
 
 
 def main():
     if "--rolling" in sys.argv:
-        rolling(jr.read_dma_sweeps(DATA))
+        data = rolling(jr.read_dma_sweeps(DATA))
+        if "--record" in sys.argv:
+            _record("prony_rolling", data)
         return
     mc = master(DATA)
     smooth = smoothness_rows(mc)
@@ -190,13 +219,9 @@ def main():
     for r in syn:
         print(f"  {r['errors']:16s} " + " / ".join(f"{v:+.2%}" for v in r["glassy_bias"].values()))
     if "--record" in sys.argv:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
-        import _numbers
-
-        _numbers.record("prony_plateau", {"command": "python benchmarks/prony_smoothness.py --record",
-                                          "phase_sigma": prony.INSTRUMENT_PHASE_SIGMA, "smoothness": smooth,
-                                          "plateau": plateau, "synthetic": syn,
-                                          "synthetic_kk_implied": kk_exact})
+        _record("prony_plateau", {"command": "python benchmarks/prony_smoothness.py --record",
+                                  "phase_sigma": prony.INSTRUMENT_PHASE_SIGMA, "smoothness": smooth,
+                                  "plateau": plateau, "synthetic": syn, "synthetic_kk_implied": kk_exact})
 
 
 if __name__ == "__main__":

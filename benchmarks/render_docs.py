@@ -373,10 +373,48 @@ def prony_plateau_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def _speed(v):
+    return f"{v * 1e3:g} mm/s" if v < 0.1 else f"{v:g} m/s"
+
+
+def prony_rolling_table(numbers: dict) -> str:
+    """docs/dma.md: the temperatures where dR/dT changes sign per fit, method and speed, and the
+    change of R(T) by the instrument error model (``prony_smoothness.py --rolling --record``)."""
+    sec = numbers["prony_rolling"]
+    runs = {}
+    for r in sec["extrema"]:
+        runs.setdefault((r["method"], r["step"]), []).append(r)
+    names = {"direct": "direct method", "full": "full 3D model"}
+    heads = [f"{names[m]}, {step:g} K steps: " + ", ".join(dict.fromkeys(_speed(r["speed"]) for r in rs))
+             for (m, step), rs in runs.items()]
+    lines = ["| fit | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|"]
+    for fit in dict.fromkeys(r["fit"] for r in sec["extrema"]):
+        cells = []
+        for rs in runs.values():
+            mine = [r for r in rs if r["fit"] == fit]
+            cells.append("; ".join(f"{len(r['at_degC'])}" + (f" ({', '.join(f'{t + 0.0:.0f}' for t in r['at_degC'])})"
+                                                              if 0 < len(r["at_degC"]) <= 4 else "") for r in mine))
+        lines.append(f"| `{fit}` | " + " | ".join(cells) + " |")
+    valid = {m: sorted({r["valid"] for r in rs}) for (m, _), rs in runs.items()}
+    points = {m: rs[0]["points"] for (m, _), rs in runs.items()}
+    lines += ["", "Points valid, per speed: " + "; ".join(
+        f"{names[m]} {v[0]}" + (f"-{v[-1]}" if v[-1] != v[0] else "") + f" of {points[m]}" for m, v in valid.items())
+        + ".", ""]
+    at = sorted(sec["change"][0]["at"], key=float)  # numbers.json sorts the keys as strings
+    lines += ["| R(T), `phase_sigma` 0.1 deg over the default, - 1 | " + " | ".join(f"{t} degC" for t in at)
+              + " | median | largest |", "|---" * (len(at) + 3) + "|"]
+    for r in sec["change"]:
+        lines.append(f"| {names[r['method']]}, {_speed(r['speed'])} | " + " | ".join(_pct1(r["at"][t]) for t in at)
+                     + f" | {_pct1(r['median'])} | {_pct1(r['largest'])} at {r['largest_at_degC']:.0f} degC |")
+    lines.append(f"\n(`{sec['command']}`, {_machine(sec['measured'])}.)")
+    return "\n".join(lines)
+
+
 #: generated block name -> renderer of numbers.json
 BLOCKS = {
     "prony-smoothness": prony_smoothness_table,
     "prony-plateau": prony_plateau_table,
+    "prony-rolling": prony_rolling_table,
     "methods-table": methods_table,
     "default-method-table": default_method_table,
     "first-use": first_use,

@@ -3,6 +3,7 @@ bad arguments with one clear message (exit status 2)."""
 
 import csv
 import json
+import math
 import warnings
 
 import numpy as np
@@ -368,6 +369,10 @@ def test_material_writes_the_library_fits_and_every_export(material_dir, capsys)
         assert (out / name).stat().st_size > 0
     report = (out / "material_report.txt").read_text()
     assert f"Prony: {pf.n_terms} terms" in report and "WLF: C1 = " in report
+    # the error model the fit was weighed by, saved and reported (default: none, storage and loss alike)
+    saved = (info["prony"]["phase_sigma"], info["prony"]["modulus_sigma"])
+    assert saved == (pf.phase_sigma, pf.modulus_sigma) == (0.0, 0.01)
+    assert "error model: storage and loss weighed alike (phase_sigma 0)" in report
     # the residual per decade of reduced omega (issue 28, item 5): the library fit's residuals, binned
     assert "Prony rms log residual per decade" in report
     decade = np.floor(np.log10(w_all := jr.master_curve(sw, sh).omega)).astype(int)
@@ -524,19 +529,25 @@ def test_every_option_has_help_and_the_texts_render_cleanly():
 
 
 def test_material_prony_smoothness_is_the_library_fit(material_dir, tmp_path):
-    """--prony-smoothness 1 --phase-sigma 0.003 --modulus-sigma 0.02 writes the library's smoothed
-    fit (3 times per decade) under that instrument error model and records them."""
+    """--prony-smoothness 1 --phase-sigma 0.2 --modulus-sigma 0.02 writes the library's smoothed
+    fit (3 times per decade) under that instrument error model, the phase error given in degrees
+    on the command line and in radians to the library (SI), and records and reports the model."""
     data, _ = material_dir
-    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--phase-sigma", "0.003",
+    assert main(["material", str(data), "--T-ref", "298.15", "--prony-smoothness", "1", "--phase-sigma", "0.2",
                  "--modulus-sigma", "0.02", "--out", str(tmp_path)]) == 0
     sw = jr.read_dma_sweeps(data)
-    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0, phase_sigma=0.003,
-                        modulus_sigma=0.02).material
+    want = jr.fit_prony(jr.master_curve(sw, jr.fit_shift_factors(sw, T_ref=298.15)), smoothness=1.0,
+                        phase_sigma=math.radians(0.2), modulus_sigma=0.02)
+    assert (want.phase_sigma, want.modulus_sigma) == (math.radians(0.2), 0.02)  # the fit records its error model
     mat, _ = jr.load_material(tmp_path / "material.json")
-    np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.G), rtol=1e-12)
-    np.testing.assert_allclose(np.asarray(mat.tau), np.asarray(want.tau), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(mat.G), np.asarray(want.material.G), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(mat.tau), np.asarray(want.material.tau), rtol=1e-12)
     prony = json.loads((tmp_path / "material.json").read_text())["info"]["prony"]
-    assert (prony["smoothness"], prony["phase_sigma"], prony["modulus_sigma"]) == (1.0, 0.003, 0.02)
+    assert (prony["smoothness"], prony["modulus_sigma"]) == (1.0, 0.02)
+    assert prony["phase_sigma"] == pytest.approx(math.radians(0.2), rel=1e-15)  # SI in the file: rad
+    assert prony["phase_sigma_deg"] == pytest.approx(0.2, rel=1e-15)
+    report = (tmp_path / "material_report.txt").read_text()
+    assert "error model: phase_sigma 0.2 deg (3.491 mrad), modulus_sigma 0.02" in report
 
 
 def test_conveyor_trough_rows_match_the_library(material_dir, tmp_path, capsys):

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..io import UNITS, Column, read_table, write_table
 from .material import WLF, Arrhenius, GeneralizedMaxwell
+from .prony import PronyFit
 
 
 #: Terms whose modulus is below this fraction of the instantaneous modulus ``G_0`` are left out
@@ -69,11 +70,21 @@ def write_ansys(material: GeneralizedMaxwell, path, *, shift: WLF | None = None,
     Path(path).write_text("\n".join(lines) + "\n")
 
 
-def save_material(path, material: GeneralizedMaxwell, shift: WLF | Arrhenius | None = None, *, info=None):
+def save_material(path, material: GeneralizedMaxwell | PronyFit, shift: WLF | Arrhenius | None = None, *, info=None):
     """Save a Prony series (and its shift law) for :func:`load_material`: ``.json`` (full
     precision, with ``info``: any JSON-serialisable provenance) or ``.csv`` (columns ``tau``
-    [s], ``G`` [Pa], first data row ``inf, G_inf``; the shift law in a ``#`` comment line)."""
+    [s], ``G`` [Pa], first data row ``inf, G_inf``; the shift law in a ``#`` comment line).
+
+    A :class:`PronyFit` saves its material, and the JSON's ``info["prony"]`` says how it was
+    fitted: the error model its residuals were weighed by (``phase_sigma`` [rad],
+    ``modulus_sigma`` [-]), its rms log residual and number of terms (``info``'s own ``prony``
+    entries are kept beside them)."""
     path = Path(path)
+    if isinstance(material, PronyFit):
+        given = dict(info or {})
+        fitted = {**material.error_model(), "rms_log": material.rms, "n_terms": material.n_terms}
+        info = {**given, "prony": {**fitted, **given.get("prony", {})}}
+        material = material.material
     shift_d = None
     if isinstance(shift, WLF):
         shift_d = {"law": "WLF", "C1": float(shift.C1), "C2": float(shift.C2), "T_ref": float(shift.T_ref)}

@@ -29,7 +29,10 @@ from .shift import MasterCurve
 
 
 #: :func:`fit_prony` warns when its rms log residual exceeds this (a factor e^0.5 = 1.65 rms):
-#: measured master curves that superpose leave 0.1-0.2 (the shipped file: 0.144).
+#: measured master curves that superpose leave 0.1-0.25 (the shipped file: docs/dma.md). The rms
+#: is unweighted, over the values fitted (the caller's weight > 0), as the report prints it, not
+#: the weighted rms the fit minimises: with the instrument error model a plateau's loss weighs
+#: ~0.06, so a loss 20x off there (a unit slip) would pass under a weighted rms.
 MAX_PRONY_RMS = 0.5
 
 
@@ -53,27 +56,6 @@ def _binned(logw, log_gs, log_gl, wts, n_bins):
         wout.append(np.sqrt(w2))
     keep = count > 0
     return tuple(o[keep] for o in out), np.stack(wout, axis=1)[keep]
-
-
-@dataclasses.dataclass(frozen=True)
-class PronyFit:
-    """A generalized Maxwell series fitted to a master curve (:func:`fit_prony`).
-
-    Attributes:
-        material: :class:`jaxroll.GeneralizedMaxwell` (``G_inf``, ``G_i`` [Pa], ``tau_i`` [s]).
-        residuals: ``log(G'_fit / G'_meas)`` and ``log(G''_fit / G''_meas)`` at the master
-            curve's points, shape ``(n_points, 2)`` (natural log: relative errors).
-        rms: rms of ``residuals`` (storage and loss together) over the values fitted [-].
-        n_terms: number of terms kept (non-zero moduli).
-        weights: the caller's weights of the (storage, loss) residuals, ``(n_points, 2)`` (0: left
-            out; the fit multiplies them by :func:`instrument_weights`).
-    """
-
-    material: GeneralizedMaxwell
-    residuals: np.ndarray
-    rms: float
-    n_terms: int
-    weights: np.ndarray | None = None
 
 
 def prony_moduli(G_inf, G, tau, omega):
@@ -138,11 +120,10 @@ def _refine(p, args):
 SMOOTH_TERMS_PER_DECADE = 3
 
 #: Default weight ``lambda`` of the smoothed fit's curvature penalty. Measured on the shipped
-#: master curve (``benchmarks/prony_smoothness.py``): weighing storage and loss alike, the
-#: rolling resistance of a 1 cm ball (10 N, H = 10 mm) from -40 to 100 degC at 1 mm/s and 1 m/s
-#: has one extremum in temperature (its peak) at ``lambda = 3``, 3-4 at ``lambda = 1`` and 13-16
-#: with the fewest-terms fit (one per decade); with the instrument weights (``phase_sigma`` 0.1
-#: deg) 1-2 at ``lambda`` 1 and 3 (the peak and one turn on the glassy side) against 15-17.
+#: master curve (``benchmarks/prony_smoothness.py --rolling``, tables in docs/dma.md): the
+#: rolling resistance of a 1 cm ball (10 N, H = 10 mm) from -40 to 100 degC turns in temperature
+#: at its peak and a few times on the glassy side, where it is small and flat, at ``lambda = 3``;
+#: more often at ``lambda = 1``, and with every term of the fewest-terms fit (one per decade).
 SMOOTHNESS = 3.0
 
 #: Relative error of the measured modulus ``|G*|`` [-] of the instrument error model: 1 %, an
@@ -165,6 +146,37 @@ INSTRUMENT_PHASE_SIGMA = math.radians(0.1)
 #: 0-25 degC 10-22 % low (docs/dma.md): the data are not Kramers-Kronig-consistent within the
 #: assumed errors, so the weights would choose the answer rather than describe the instrument.
 PHASE_SIGMA = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class PronyFit:
+    """A generalized Maxwell series fitted to a master curve (:func:`fit_prony`).
+
+    Attributes:
+        material: :class:`jaxroll.GeneralizedMaxwell` (``G_inf``, ``G_i`` [Pa], ``tau_i`` [s]).
+        residuals: ``log(G'_fit / G'_meas)`` and ``log(G''_fit / G''_meas)`` at the master
+            curve's points, shape ``(n_points, 2)`` (natural log: relative errors).
+        rms: rms of ``residuals`` (storage and loss together) over the values fitted [-].
+        n_terms: number of terms kept (non-zero moduli).
+        weights: the caller's weights of the (storage, loss) residuals, ``(n_points, 2)`` (0: left
+            out; the fit multiplies them by :func:`instrument_weights`).
+        phase_sigma: the instrument error model the fit weighed its residuals with: absolute
+            error of the phase angle [rad] (0: storage and loss weighed alike).
+        modulus_sigma: relative error of ``|G*|`` [-] of that model.
+    """
+
+    material: GeneralizedMaxwell
+    residuals: np.ndarray
+    rms: float
+    n_terms: int
+    weights: np.ndarray | None = None
+    phase_sigma: float = PHASE_SIGMA
+    modulus_sigma: float = MODULUS_SIGMA
+
+    def error_model(self) -> dict:
+        """``{"phase_sigma": [rad], "modulus_sigma": [-]}``: the weights' error model, for a saved
+        material's provenance (:func:`jaxroll.save_material` of a :class:`PronyFit`)."""
+        return {"phase_sigma": self.phase_sigma, "modulus_sigma": self.modulus_sigma}
 
 
 def instrument_weights(storage, loss, *, phase_sigma=INSTRUMENT_PHASE_SIGMA, modulus_sigma=MODULUS_SIGMA):
@@ -208,10 +220,11 @@ def _moduli_at(G_inf, G, log_wt):
 _smooth_jacobian = jax.jit(jax.jacfwd(_smooth_residuals))
 
 
-def _smooth_fit(logw, log_gs, log_gl, weight, lo, hi, smoothness):
-    """``(G_inf, G, tau)``: fixed times :data:`SMOOTH_TERMS_PER_DECADE` per decade over
-    ``[lo - 0.5, hi + 0.5]`` (decades of tau), moduli by Levenberg-Marquardt on the penalised
-    log residuals (:func:`_smooth_residuals`), from an even spectrum at the curve's level."""
+def _smooth_fit(w, gs, gl, weight, lo, hi, smoothness) -> GeneralizedMaxwell:
+    """Fixed times :data:`SMOOTH_TERMS_PER_DECADE` per decade over ``[lo - 0.5, hi + 0.5]``
+    (decades of tau), moduli by Levenberg-Marquardt on the penalised log residuals
+    (:func:`_smooth_residuals`), from an even spectrum at the curve's level."""
+    logw, log_gs, log_gl = np.log(w), np.log(gs), np.log(gl)
     n = int(round((hi - lo + 1.0) * SMOOTH_TERMS_PER_DECADE)) + 1
     tau = np.logspace(lo - 0.5, hi + 0.5, n)
     log_wt = jnp.asarray(logw[:, None] + np.log(tau)[None, :])
@@ -220,7 +233,56 @@ def _smooth_fit(logw, log_gs, log_gl, weight, lo, hi, smoothness):
     sol = least_squares(lambda x: _smooth_residuals(jnp.asarray(x), *args),
                         lambda x: _smooth_jacobian(jnp.asarray(x), *args), p0, method="lm", rtol=1e-10,
                         max_evaluations=2000, x_scale="jac")
-    return math.exp(sol.x[0]), np.exp(sol.x[1:]), tau
+    return GeneralizedMaxwell(G_inf=math.exp(sol.x[0]), G=np.exp(sol.x[1:]), tau=tau)
+
+
+def _fewest_terms_fit(w, gs, gl, weight, lo, hi, n, refine) -> GeneralizedMaxwell:
+    """``n`` log-spaced times over ``[lo, hi]`` (decades of tau), moduli ``>= 0`` by NNLS on the
+    weighted relative residuals, terms NNLS sets to zero dropped; with ``refine``, the kept
+    moduli and times by Levenberg-Marquardt on the log residuals (:func:`_refine`)."""
+    from scipy.optimize import nnls
+
+    tau = np.logspace(lo, hi, n) if n > 1 else np.array([10 ** (0.5 * (lo + hi))])
+    wt = w[:, None] * tau
+    A_s = np.hstack([np.ones((len(w), 1)), wt**2 / (1 + wt**2)]) / gs[:, None]
+    A_l = np.hstack([np.zeros((len(w), 1)), wt / (1 + wt**2)]) / gl[:, None]
+    x, _ = nnls(np.vstack([A_s, A_l]) * weight[:, None], weight, maxiter=50 * (n + 1))
+    G_inf = max(float(x[0]), 1e-6 * float(np.min(gs)))
+    keep = x[1:] > 1e-8 * float(np.sum(x[1:]))
+    G, tau = x[1:][keep], tau[keep]
+    # times as u = logit of their position in [lo - 0.5, hi + 0.5] decades (ln units below)
+    lo_e, hi_e = (lo - 0.5) * math.log(10), (hi + 0.5) * math.log(10)
+    args = (jnp.asarray(np.log(w)), jnp.asarray(np.log(gs)), jnp.asarray(np.log(gl)), jnp.asarray([lo_e, hi_e]),
+            jnp.asarray(weight))
+    t = (np.log(tau) - lo_e) / (hi_e - lo_e)
+    p = np.concatenate([[math.log(G_inf)], np.log(G), np.log(t) - np.log1p(-t)])
+    k = len(G)
+    if refine and k:
+        p = _refine(p, args)
+    tau = np.exp(lo_e + (hi_e - lo_e) / (1.0 + np.exp(-p[k + 1 :])))
+    order = np.argsort(tau)
+    return GeneralizedMaxwell(G_inf=math.exp(p[0]), G=np.exp(p[1 : k + 1])[order], tau=tau[order])
+
+
+def _caller_weights(weights, n_points):
+    """The caller's ``(n_points, 2)`` weights (all 1 by default), checked finite and ``>= 0``."""
+    wts = np.ones((n_points, 2)) if weights is None else np.asarray(weights, float)
+    if wts.shape != (n_points, 2) or not np.all(np.isfinite(wts) & (wts >= 0)):
+        raise ValueError(f"weights must be finite, >= 0, of shape ({n_points}, 2) (storage, loss per point); got "
+                         f"shape {wts.shape}")
+    return wts
+
+
+def _fitted_points(master, wts, phase_sigma, modulus_sigma):
+    """``(omega, G', G'', weight)`` that the fit meets: the master curve's points, or above
+    :data:`MAX_FIT_POINTS` the weighted bin means; ``weight`` (storage then loss) is the caller's
+    times :func:`instrument_weights`."""
+    w, gs, gl = master.omega, master.storage, master.loss
+    wfit = wts * instrument_weights(gs, gl, phase_sigma=phase_sigma, modulus_sigma=modulus_sigma)
+    if len(w) > MAX_FIT_POINTS:
+        (lw, lgs, lgl), wfit = _binned(np.log(w), np.log(gs), np.log(gl), wfit, MAX_FIT_POINTS)
+        w, gs, gl = np.exp(lw), np.exp(lgs), np.exp(lgl)
+    return w, gs, gl, np.concatenate([wfit[:, 0], wfit[:, 1]])
 
 
 def fit_prony(master: MasterCurve, *, smoothness=SMOOTHNESS, n_terms=None, refine=True, weights=None,
@@ -238,10 +300,8 @@ def fit_prony(master: MasterCurve, *, smoothness=SMOOTHNESS, n_terms=None, refin
     weighted by an instrument error model (:func:`instrument_weights`): a relative error
     ``modulus_sigma`` on ``|G*|`` and an absolute error ``phase_sigma`` on the phase angle, so the
     loss counts less where tan delta is small. Where measured storage and loss are not
-    Kramers-Kronig-consistent, the weights decide which one the fit follows: on the shipped file
-    the glassy plateau is +19.5 % at ``phase_sigma=0`` and +8.4 % at
-    :data:`INSTRUMENT_PHASE_SIGMA` (0.1 deg), and the loss at tan delta 0.02-0.1 then lies 28 %
-    low against 13 % (``benchmarks/prony_smoothness.py``, docs/dma.md).
+    Kramers-Kronig-consistent, the weights decide which one the fit follows (docs/dma.md, "The
+    glassy plateau and the instrument's errors", measured by ``benchmarks/prony_smoothness.py``).
 
     With ``smoothness=None``, the fewest terms instead: relaxation times are log-spaced over the data's reduced-frequency range,
     ``tau in [1/omega_max, 1/omega_min]``; the moduli ``G_inf, G_i >= 0`` solve the
@@ -257,9 +317,7 @@ def fit_prony(master: MasterCurve, *, smoothness=SMOOTHNESS, n_terms=None, refin
     Args:
         master: :class:`MasterCurve`.
         smoothness: ``lambda > 0``, the weight of the curvature penalty of the smooth spectrum
-            (default :data:`SMOOTHNESS`; 1 on the shipped file: 3-4 extrema of the rolling
-            resistance in temperature where 3 leaves the peak alone), or ``None``: the fewest
-            terms (NNLS + refinement).
+            (default :data:`SMOOTHNESS`), or ``None``: the fewest terms (NNLS + refinement).
         n_terms: (``smoothness=None`` only) number of relaxation times before pruning (default:
             one per decade of the reduced-frequency range, plus one).
         refine: (``smoothness=None`` only) refine the NNLS solution (default True).
@@ -274,68 +332,39 @@ def fit_prony(master: MasterCurve, *, smoothness=SMOOTHNESS, n_terms=None, refin
             matters only with ``phase_sigma > 0``).
 
     Returns:
-        :class:`PronyFit`; a :class:`jaxroll.DataWarning` when its rms exceeds
-        :data:`MAX_PRONY_RMS`.
+        :class:`PronyFit`, with the error model it was weighed by; a :class:`jaxroll.DataWarning`
+        when its rms log residual (unweighted: what the report prints) exceeds :data:`MAX_PRONY_RMS`.
     """
-    from scipy.optimize import nnls
-
-    w, gs, gl = master.omega, master.storage, master.loss
+    w = master.omega
     lo, hi = -math.log10(w.max()), -math.log10(w.min())  # logs first: 1/omega overflows below 1e-308
     n = int(n_terms) if n_terms is not None else int(math.ceil(hi - lo)) + 1
     if n < 1:
         raise ValueError(f"n_terms must be >= 1; got {n_terms}")
-    tau = np.logspace(lo, hi, n) if n > 1 else np.array([10 ** (0.5 * (lo + hi))])
-    wts = np.ones((len(w), 2)) if weights is None else np.asarray(weights, float)
-    if wts.shape != (len(w), 2) or not np.all(np.isfinite(wts) & (wts >= 0)):
-        raise ValueError(f"weights must be finite, >= 0, of shape ({len(w)}, 2) (storage, loss per point); got "
-                         f"shape {wts.shape}")
-    keep_pt = wts > 0
-    logs_all = (np.log(w), np.log(gs), np.log(gl))
-    wfit = wts * instrument_weights(gs, gl, phase_sigma=phase_sigma, modulus_sigma=modulus_sigma)
-    if len(w) > MAX_FIT_POINTS:  # long curves: fit the weighted bin means (residuals still at every point)
-        (lw, lgs, lgl), wfit = _binned(*logs_all, wfit, MAX_FIT_POINTS)
-        w, gs, gl = np.exp(lw), np.exp(lgs), np.exp(lgl)
-    weight = np.concatenate([wfit[:, 0], wfit[:, 1]])
+    wts = _caller_weights(weights, len(w))
     if smoothness is not None:
         if not (math.isfinite(smoothness) and smoothness > 0):
             raise ValueError(f"smoothness must be finite and > 0 (or None); got {smoothness}")
         if n_terms is not None or refine is not True:
             raise ValueError("n_terms and refine belong to the fewest-terms fit: pass smoothness=None with them")
-        G_inf, G, tau = _smooth_fit(np.log(w), np.log(gs), np.log(gl), weight, lo, hi, smoothness)
-        gs_all, gl_all = (np.asarray(x) for x in _moduli_at(G_inf, jnp.asarray(G),
-                                                            jnp.asarray(logs_all[0][:, None] + np.log(tau))))
-        r = np.stack([np.log(gs_all) - logs_all[1], np.log(gl_all) - logs_all[2]], axis=1)
-        return _result(GeneralizedMaxwell(G_inf=G_inf, G=G, tau=tau), r, keep_pt, wts)
-    wt = w[:, None] * tau
-    A_s = np.hstack([np.ones((len(w), 1)), wt**2 / (1 + wt**2)]) / gs[:, None]
-    A_l = np.hstack([np.zeros((len(w), 1)), wt / (1 + wt**2)]) / gl[:, None]
-    x, _ = nnls(np.vstack([A_s, A_l]) * weight[:, None], weight, maxiter=50 * (n + 1))
-    G_inf = max(float(x[0]), 1e-6 * float(np.min(gs)))
-    keep = x[1:] > 1e-8 * float(np.sum(x[1:]))
-    G, tau = x[1:][keep], tau[keep]
-    # times as u = logit of their position in [lo - 0.5, hi + 0.5] decades (ln units below)
-    lo_e, hi_e = (lo - 0.5) * math.log(10), (hi + 0.5) * math.log(10)
-    args = (jnp.asarray(np.log(w)), jnp.asarray(np.log(gs)), jnp.asarray(np.log(gl)), jnp.asarray([lo_e, hi_e]),
-            jnp.asarray(weight))
-    t = (np.log(tau) - lo_e) / (hi_e - lo_e)
-    p = np.concatenate([[math.log(G_inf)], np.log(G), np.log(t) - np.log1p(-t)])
-    k = len(G)
-    if refine and k:
-        p = _refine(p, args)
-    every = tuple(jnp.asarray(a) for a in logs_all) + (args[3], jnp.ones(2 * len(logs_all[0])))
-    r = np.asarray(_prony_residuals(jnp.asarray(p), *every)).reshape(2, -1).T
-    tau = np.exp(lo_e + (hi_e - lo_e) / (1.0 + np.exp(-p[k + 1 :])))
-    order = np.argsort(tau)
-    mat = GeneralizedMaxwell(G_inf=math.exp(p[0]), G=np.exp(p[1 : k + 1])[order], tau=tau[order])
-    return _result(mat, r, keep_pt, wts)
+    points = _fitted_points(master, wts, phase_sigma, modulus_sigma)
+    if smoothness is None:
+        mat = _fewest_terms_fit(*points, lo, hi, n, refine)
+    else:
+        mat = _smooth_fit(*points, lo, hi, smoothness)
+    return _result(mat, master, wts, phase_sigma, modulus_sigma)
 
 
-def _result(mat, r, keep_pt, wts):
-    """The :class:`PronyFit` of ``mat`` with residuals ``r``; warns above :data:`MAX_PRONY_RMS`."""
-    rms = float(np.sqrt(np.mean(r[keep_pt] ** 2)))
+def _result(mat, master, wts, phase_sigma, modulus_sigma):
+    """The :class:`PronyFit` of ``mat`` with its log residuals at every point of ``master``; warns
+    when their rms over the values fitted (caller's weight > 0) exceeds :data:`MAX_PRONY_RMS`."""
+    gs, gl = prony_moduli(mat.G_inf, jnp.asarray(mat.G), jnp.asarray(mat.tau), jnp.asarray(master.omega))
+    r = np.stack([np.log(np.asarray(gs)) - np.log(master.storage), np.log(np.asarray(gl)) - np.log(master.loss)],
+                 axis=1)
+    rms = float(np.sqrt(np.mean(r[wts > 0] ** 2)))
     if rms > MAX_PRONY_RMS:
         warnings.warn(f"the Prony fit misses the master curve by an rms log residual of {rms:.3g} (more than "
                       f"{MAX_PRONY_RMS}, a factor {math.exp(rms):.3g}): the sets do not superpose (check the data "
                       "warnings: units, swapped columns, shift factors) or the series needs more terms (n_terms)",
                       DataWarning, stacklevel=3)
-    return PronyFit(material=mat, residuals=r, rms=rms, n_terms=len(np.atleast_1d(mat.tau)), weights=wts)
+    return PronyFit(material=mat, residuals=r, rms=rms, n_terms=len(np.atleast_1d(mat.tau)), weights=wts,
+                    phase_sigma=float(phase_sigma), modulus_sigma=float(modulus_sigma))

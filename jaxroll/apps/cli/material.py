@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 import warnings
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -20,50 +22,105 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    tell = say(args.progress)
-    tell(f"material: reading {args.dma}")
     with warnings.catch_warnings(record=True) as caught:  # data warnings go to stderr and the report
         warnings.simplefilter("always", jr.DataWarning)
-        sw = jr.read_dma_sweeps(args.dma, poisson=args.poisson)
-        tell(f"material: shift factors of {sw.n_sets} temperature sets ({args.shift_moduli} moduli), WLF and "
-             "Arrhenius fits")
-        sh = jr.fit_shift_factors(sw, T_ref=args.T_ref, moduli=args.shift_moduli)
-        wlf, arr = jr.fit_wlf(sh, C2=args.wlf_C2), jr.materials.fit_arrhenius(sh)
-        master = jr.master_curve(sw, sh)
-        artifacts = jr.materials.loss_artifacts(master)
-        weights = np.ones((len(master.omega), 2))
-        if args.drop_loss_artifacts:
-            weights[artifacts, 1] = 0.0
-        tell(f"material: Prony fit to {len(master.omega)} master-curve points")
-        if args.prony_terms is not None and args.prony_smoothness is not None:
-            raise ValueError("--prony-terms selects the fewest-terms fit and --prony-smoothness the smooth one: give one")
-        fewest = args.prony_terms is not None
-        for name in ("phase_sigma", "modulus_sigma"):  # defaults: the instrument error model of jaxroll.materials.prony
-            if getattr(args, name) is None:
-                setattr(args, name, getattr(jr.materials.prony, name.upper()))
-        smoothness = None if fewest else args.prony_smoothness or jr.materials.prony.SMOOTHNESS
-        pf = jr.fit_prony(master, smoothness=smoothness, weights=weights, phase_sigma=args.phase_sigma,
-                          modulus_sigma=args.modulus_sigma, **({"n_terms": args.prony_terms} if fewest else {}))
+        f = _fit(args, say(args.progress))
+    f.warned = _warnings(caught, f)
+    report, info = _report(args, f)
+    _write(out, args, f, info)
+    plot.close(plot.plot_master_fit(f.master, f.prony, path=out / "master_curve.png"))
+    plot.close(plot.plot_shift_factors(f.shifts, {"WLF": f.wlf, "Arrhenius": f.arrhenius},
+                                       path=out / "shift_factors.png"))
+    (out / "material_report.txt").write_text("\n".join(report) + "\n")
+    written = ["material.json", "material.csv", "material_abaqus.inp", "material_ansys.mac", "shift_factors.csv",
+               "master_curve.csv", "master_curve.png", "shift_factors.png", "material_report.txt"]
+    print("\n".join(report))
+    print(f"wrote {', '.join(str(out / w) for w in written)}  ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _fit(args, tell) -> SimpleNamespace:
+    """Read the sweeps, fit the shift factors, WLF and Arrhenius, build the master curve and fit the
+    Prony series (``--phase-sigma`` [deg] converted to the library's radians)."""
+    import jaxroll as jr
+    from jaxroll.materials import prony
+
+    if args.prony_terms is not None and args.prony_smoothness is not None:
+        raise ValueError("--prony-terms selects the fewest-terms fit and --prony-smoothness the smooth one: give one")
+    tell(f"material: reading {args.dma}")
+    f = SimpleNamespace(sweeps=jr.read_dma_sweeps(args.dma, poisson=args.poisson))
+    tell(f"material: shift factors of {f.sweeps.n_sets} temperature sets ({args.shift_moduli} moduli), WLF and "
+         "Arrhenius fits")
+    f.shifts = jr.fit_shift_factors(f.sweeps, T_ref=args.T_ref, moduli=args.shift_moduli)
+    f.wlf, f.arrhenius = jr.fit_wlf(f.shifts, C2=args.wlf_C2), jr.materials.fit_arrhenius(f.shifts)
+    f.master = jr.master_curve(f.sweeps, f.shifts)
+    f.artifacts = jr.materials.loss_artifacts(f.master)
+    f.weights = np.ones((len(f.master.omega), 2))
+    if args.drop_loss_artifacts:
+        f.weights[f.artifacts, 1] = 0.0
+    tell(f"material: Prony fit to {len(f.master.omega)} master-curve points")
+    fewest = args.prony_terms is not None
+    f.smoothness = None if fewest else args.prony_smoothness or prony.SMOOTHNESS
+    sigmas = {"phase_sigma": prony.PHASE_SIGMA if args.phase_sigma is None else math.radians(args.phase_sigma),
+              "modulus_sigma": prony.MODULUS_SIGMA if args.modulus_sigma is None else args.modulus_sigma}
+    f.prony = jr.fit_prony(f.master, smoothness=f.smoothness, weights=f.weights, **sigmas,
+                           **({"n_terms": args.prony_terms} if fewest else {}))
+    return f
+
+
+def _warnings(caught, f) -> list:
+    """The data warnings and the shift fits' notes, printed once each to stderr; other warnings
+    are issued again."""
+    import jaxroll as jr
+
     warned = [str(w.message) for w in caught if issubclass(w.category, jr.DataWarning)]
-    warned += [n if "Arrhenius" in n else f"Arrhenius: {n}" for n in arr.notes]
-    warned += [n if "WLF" in n else f"WLF: {n}" for n in wlf.notes if n not in warned]
+    warned += [n if "Arrhenius" in n else f"Arrhenius: {n}" for n in f.arrhenius.notes]
+    warned += [n if "WLF" in n else f"WLF: {n}" for n in f.wlf.notes if n not in warned]
     for w in caught:
         if not issubclass(w.category, jr.DataWarning):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     for message in warned:
         print(f"jaxroll material: warning: {message}", file=sys.stderr)
+    return warned
+
+
+def _prony_summary(args, f):
+    """``(report lines, info["prony"])`` of the Prony fit: the loss artifacts, the rms per modulus
+    and per decade of reduced omega over the values fitted, the error model."""
+    pf, master, weights, artifacts = f.prony, f.master, f.weights, f.artifacts
     mat = pf.material
     rms_s, rms_l = (float(np.sqrt(np.mean(pf.residuals[weights[:, k] > 0, k] ** 2))) for k in (0, 1))
-    hz = ", ".join(f"{f:.4g}" for f in np.unique(np.round(master.frequency[artifacts] / (2 * np.pi), 6)))
-    found = (f"loss artifacts: {int(artifacts.sum())} loss values at {hz} Hz turn up in most sets ("
-             + ("left out of the Prony fit)" if args.drop_loss_artifacts else
-                "kept in the Prony fit; --drop-loss-artifacts leaves them out)")) if artifacts.any() else \
-        "loss artifacts: none found"
-    decade = np.floor(np.log10(master.omega)).astype(int)  # the fit's rms log residual per decade of reduced omega
+    decade = np.floor(np.log10(master.omega)).astype(int)
     per_decade = {int(d): [float(np.sqrt(np.mean(pf.residuals[(decade == d) & (weights[:, k] > 0), k] ** 2)))
                            if np.any((decade == d) & (weights[:, k] > 0)) else None for k in (0, 1)]
                   for d in np.unique(decade)}
-    G0 = float(mat.glassy_modulus())
+    model = ("storage and loss weighed alike (phase_sigma 0)" if pf.phase_sigma == 0 else
+             f"phase_sigma {math.degrees(pf.phase_sigma):.4g} deg ({pf.phase_sigma * 1e3:.4g} mrad), modulus_sigma "
+             f"{pf.modulus_sigma:.4g}")
+    hz = sorted({round(float(w) / (2 * np.pi), 6) for w in master.frequency[artifacts]})
+    found = (f"loss artifacts: {int(artifacts.sum())} loss values at {', '.join(f'{v:.4g}' for v in hz)} Hz turn up "
+             "in most sets (" + ("left out of the Prony fit)" if args.drop_loss_artifacts else
+                                 "kept in the Prony fit; --drop-loss-artifacts leaves them out)")) \
+        if artifacts.any() else "loss artifacts: none found"
+    lines = [
+        found,
+        f"Prony: {pf.n_terms} terms, tau {float(np.min(mat.tau)):.3g}..{float(np.max(mat.tau)):.3g} s; rms log "
+        f"residual {pf.rms:.4f} of the values fitted (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = "
+        f"{float(mat.G_inf):.4g} Pa, G_0 = {float(mat.glassy_modulus()):.4g} Pa (shear); error model: {model}",
+        "Prony rms log residual per decade of reduced omega [rad/s] (storage/loss): "
+        + ", ".join(f"1e{d}: " + "/".join("-" if v is None else f"{v:.3f}" for v in sl) for d, sl in per_decade.items()),
+    ]
+    info = {"n_terms": pf.n_terms, "smoothness": f.smoothness, "phase_sigma_deg": math.degrees(pf.phase_sigma),
+            "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
+            "rms_log_per_decade": {f"1e{d}": sl for d, sl in per_decade.items()}, "loss_artifacts_hz": hz,
+            "loss_artifacts_left_out": bool(args.drop_loss_artifacts and artifacts.any())}
+    return lines, info
+
+
+def _report(args, f):
+    """``(report lines, material.json info)``."""
+    sw, sh, wlf, arr, master = f.sweeps, f.shifts, f.wlf, f.arrhenius, f.master
+    prony_lines, prony_info = _prony_summary(args, f)
     report = [
         f"DMA: {args.dma}: {len(sw.omega)} points in {sw.n_sets} temperature sets, {sw.set_temperature[0]:.2f}.."
         f"{sw.set_temperature[-1]:.2f} K ({sw.source})",
@@ -74,13 +131,8 @@ def run(args) -> int:
         f"({wlf.interval('C2')}); rms {wlf.rms:.3f} decades (the law written with the material)",
         f"Arrhenius: E_a = {arr.params['activation_energy']:.4g} J/mol ({arr.interval('activation_energy')}); "
         f"rms {arr.rms:.3f} decades",
-        found,
-        f"Prony: {pf.n_terms} terms, tau {float(np.min(mat.tau)):.3g}..{float(np.max(mat.tau)):.3g} s; rms log "
-        f"residual {pf.rms:.4f} of the values fitted (storage {rms_s:.4f}, loss {rms_l:.4f}); G_inf = {float(mat.G_inf):.4g} Pa, "
-        f"G_0 = {G0:.4g} Pa (shear)",
-        "Prony rms log residual per decade of reduced omega [rad/s] (storage/loss): "
-        + ", ".join(f"1e{d}: " + "/".join("-" if v is None else f"{v:.3f}" for v in sl) for d, sl in per_decade.items()),
-    ] + [f"warning: {m}" for m in warned]
+        *prony_lines,
+    ] + [f"warning: {m}" for m in f.warned]
     info = {"source": str(args.dma), "moduli": sw.source, "temperature_range": [float(sw.set_temperature[0]),
             float(sw.set_temperature[-1])], "reduced_frequency_range": [float(master.omega[0]), float(master.omega[-1])],
             "T_ref": sh.T_ref,
@@ -88,18 +140,21 @@ def run(args) -> int:
                     "degenerate": wlf.degenerate, "C2_fixed": args.wlf_C2 is not None},
             "Arrhenius": {"activation_energy": arr.params["activation_energy"],
                           "ci95": _ci(arr)["activation_energy"], "rms_decades": arr.rms},
-            "warnings": warned,
-            "prony": {"n_terms": pf.n_terms, "smoothness": smoothness, "phase_sigma": args.phase_sigma,
-                      "modulus_sigma": args.modulus_sigma, "rms_log": pf.rms, "rms_log_storage": rms_s, "rms_log_loss": rms_l,
-                      "rms_log_per_decade": {f"1e{d}": sl for d, sl in per_decade.items()},
-                      "loss_artifacts_hz": sorted({round(float(f) / (2 * np.pi), 6)
-                                                   for f in master.frequency[artifacts]}),
-                      "loss_artifacts_left_out": bool(args.drop_loss_artifacts and artifacts.any())}}
-    jr.save_material(out / "material.json", mat, wlf.shift, info=info)
-    jr.save_material(out / "material.csv", mat, wlf.shift)
-    jr.materials.write_abaqus(mat, out / "material_abaqus.inp", shift=wlf.shift, poisson=args.fe_poisson)
-    jr.materials.write_ansys(mat, out / "material_ansys.mac", shift=wlf.shift, poisson=args.fe_poisson)
-    laws = [np.asarray(f.shift.log_shift(sh.temperature)) / np.log(10.0) for f in (wlf, arr)]
+            "warnings": f.warned, "prony": prony_info}
+    return report, info
+
+
+def _write(out, args, f, info) -> None:
+    """material.json (with ``info`` and the Prony fit's error model), material.csv, the FE decks,
+    shift_factors.csv and master_curve.csv into ``out``."""
+    import jaxroll as jr
+
+    mat, sh, sw, master = f.prony.material, f.shifts, f.sweeps, f.master
+    jr.save_material(out / "material.json", f.prony, f.wlf.shift, info=info)
+    jr.save_material(out / "material.csv", mat, f.wlf.shift)
+    jr.materials.write_abaqus(mat, out / "material_abaqus.inp", shift=f.wlf.shift, poisson=args.fe_poisson)
+    jr.materials.write_ansys(mat, out / "material_ansys.mac", shift=f.wlf.shift, poisson=args.fe_poisson)
+    laws = [np.asarray(fit.shift.log_shift(sh.temperature)) / np.log(10.0) for fit in (f.wlf, f.arrhenius)]
     write_table(out / "shift_factors.csv", {"temperature": sh.temperature, "log10_aT": sh.log10_aT, "sigma": sh.sigma,
                                             "step_sigma": sh.step_sigma, "wlf_log10_aT": laws[0],
                                             "arrhenius_log10_aT": laws[1],
@@ -112,14 +167,6 @@ def run(args) -> int:
                 ["rad/s", "Pa", "Pa", "K", "-", "Pa", "Pa"],
                 formats={**dict.fromkeys(("reduced_omega", "storage", "loss", "prony_storage", "prony_loss"), ".8g"),
                          "temperature": ".6g"})
-    plot.close(plot.plot_master_fit(master, pf, path=out / "master_curve.png"))
-    plot.close(plot.plot_shift_factors(sh, {"WLF": wlf, "Arrhenius": arr}, path=out / "shift_factors.png"))
-    (out / "material_report.txt").write_text("\n".join(report) + "\n")
-    written = ["material.json", "material.csv", "material_abaqus.inp", "material_ansys.mac", "shift_factors.csv",
-               "master_curve.csv", "master_curve.png", "shift_factors.png", "material_report.txt"]
-    print("\n".join(report))
-    print(f"wrote {', '.join(str(out / w) for w in written)}  ({time.perf_counter() - t0:.1f} s)")
-    return 0
 
 
 def _ci(fit):
@@ -159,12 +206,12 @@ def add_parser(sub) -> None:
                     default=None, help="weight of the smooth spectrum's curvature penalty (3 fixed relaxation times "
                     "per decade; default 3: the loss curve, and the rolling resistance in temperature, without "
                     "ripples from the term spacing)")
-    mt.add_argument("--phase-sigma", dest="phase_sigma", type=nonnegative("--phase-sigma [rad]"),
-                    default=None, help="absolute error of the instrument's phase angle [rad] "
+    mt.add_argument("--phase-sigma", dest="phase_sigma", type=nonnegative("--phase-sigma [deg]"),
+                    default=None, help="absolute error of the instrument's phase angle [deg] "
                     "weighting the Prony fit's loss residuals by 1 / sqrt(modulus_sigma^2 + (phase_sigma / tan "
                     "delta)^2): the loss counts less where tan delta is small, on the glassy and rubbery plateaus "
-                    "(default 0: storage and loss weighed alike; e.g. 0.001745 = 0.1 deg, an assumed instrument "
-                    "error; docs/dma.md, 'The glassy plateau')")
+                    "(default 0: storage and loss weighed alike; e.g. 0.1, an assumed instrument error; the "
+                    "library's fit_prony takes radians; docs/dma.md, 'The glassy plateau')")
     mt.add_argument("--modulus-sigma", dest="modulus_sigma", type=positive("--modulus-sigma"),
                     default=None, help="relative error of the instrument's |E*| or |G*| (default 0.01)")
     mt.add_argument("--drop-loss-artifacts", dest="drop_loss_artifacts", action="store_true",
