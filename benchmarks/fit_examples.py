@@ -9,7 +9,8 @@ fit ended on and the wall-clock and CPU time of the command (the process's CPU t
 threads: on a shared machine the better measure of the work). The examples run in the order
 given, each compiling its own programs (the first of them also pays jaxroll's import).
 
-Run: ``python benchmarks/fit_examples.py [--only NAME ...] [--record]`` (``--record`` stores each
+Run: ``python benchmarks/fit_examples.py [--only NAME ...] [--record]`` (``--only``: these examples, in
+the order given) (``--record`` stores each
 example as it finishes in the section ``fit_examples`` of benchmarks/numbers.json, keeping the
 examples not run; ``benchmarks/render_docs.py`` writes fitting/README.md's table from it).
 """
@@ -92,6 +93,8 @@ def summary(name: str, command: str, data: str, run: dict) -> dict:
         "command": command, "data": data, "params": params, "ci95": ci95,
         "deviation": {n: params[n] / TRUE[n] - 1 for n in params},
         "covered": {n: bool(ci95[n][0] <= TRUE[n] <= ci95[n][1]) for n in params},
+        "correlation": {f"{a},{b}": float(r.correlation[i, j]) for i, a in enumerate(r.names)
+                        for j, b in enumerate(r.names) if i < j},
         "reduced_chi2": float(r.reduced_chi2), "converged": bool(r.converged), "sigma_mode": r.sigma_mode,
         "intervals": getattr(r, "interval_method", None), "method": type(r.method).__name__ if r.method else None,
         "grid": _grid(r.method), "seconds": round(run["seconds"], 1), "cpu_s": round(run["cpu"], 1),
@@ -104,13 +107,14 @@ def main():
     ap.add_argument("--only", nargs="+", choices=[e[0] for e in EXAMPLES], help="run these examples only")
     ap.add_argument("--record", action="store_true", help="store the results in benchmarks/numbers.json")
     args = ap.parse_args()
-    for name, command, data in EXAMPLES:
-        if args.only and name not in args.only:
-            continue
+    chosen = {e[0]: e for e in EXAMPLES}
+    for name in args.only or chosen:
+        _, command, data = chosen[name]
         load = os.getloadavg()[0]
         with tempfile.TemporaryDirectory() as tmp:
             row = summary(name, command, data, run_example(command, Path(tmp)))
         row["load_before"] = round(load, 1)
+        row["date"] = time.strftime("%Y-%m-%d", time.gmtime())
         print(f"{name}: {row}", flush=True)
         if args.record:
             from _numbers import load as load_numbers
