@@ -51,6 +51,19 @@ def _grid(method) -> str:
     return f"{float(grid.spacing) * 1e3:.3g} mm cells, window {grid.window}"
 
 
+def _intervals(result, args, kwargs) -> str:
+    """Which 95 % intervals the fit gave: ``FitResult.interval_method`` where the library has it,
+    else the rule of ``fit_material(intervals=...)`` applied to the arguments of the call."""
+    from jaxroll.identify import fit as jfit
+
+    if getattr(result, "interval_method", None):
+        return result.interval_method
+    choice = kwargs.get("intervals", "auto")
+    rolling, dma = (list(args) + [kwargs.get("rolling"), kwargs.get("dma")])[:2]
+    auto = jfit._valley_fit(rolling, dma, kwargs.get("method"), kwargs.get("geometry", "sphere"))
+    return "profile" if choice == "profile" or (choice == "auto" and auto) else "linearised"
+
+
 def run_example(command: str, folder: Path) -> dict:
     """Run one ``jaxroll fit`` command in ``folder``; the FitResult it made, its times and output."""
     import jaxroll as jr
@@ -69,8 +82,8 @@ def run_example(command: str, folder: Path) -> dict:
     original = jfit.fit_material
 
     def capture(*a, **k):
-        captured.append(original(*a, **k))
-        return captured[-1]
+        captured.append((original(*a, **k), a, k))
+        return captured[-1][0]
 
     jfit.fit_material = capture
     out = io.StringIO()
@@ -82,7 +95,8 @@ def run_example(command: str, folder: Path) -> dict:
         seconds, cpu = time.perf_counter() - t, time.process_time() - c
     finally:
         jfit.fit_material = original
-    return {"result": captured[-1], "seconds": seconds, "cpu": cpu, "report": out.getvalue()}
+    result, a, k = captured[-1]
+    return {"result": result, "intervals": _intervals(result, a, k), "seconds": seconds, "cpu": cpu, "report": out.getvalue()}
 
 
 def summary(name: str, command: str, data: str, run: dict) -> dict:
@@ -96,7 +110,7 @@ def summary(name: str, command: str, data: str, run: dict) -> dict:
         "correlation": {f"{a},{b}": float(r.correlation[i, j]) for i, a in enumerate(r.names)
                         for j, b in enumerate(r.names) if i < j},
         "reduced_chi2": float(r.reduced_chi2), "converged": bool(r.converged), "sigma_mode": r.sigma_mode,
-        "intervals": getattr(r, "interval_method", None), "method": type(r.method).__name__ if r.method else None,
+        "intervals": run["intervals"], "method": type(r.method).__name__ if r.method else None,
         "grid": _grid(r.method), "seconds": round(run["seconds"], 1), "cpu_s": round(run["cpu"], 1),
         "load_after": round(os.getloadavg()[0], 1),
     }

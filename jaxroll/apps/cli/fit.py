@@ -55,8 +55,11 @@ def run(args) -> int:
             raise ValueError(f"--wlf: expected three numbers C1,C2,T_ref, got {args.wlf!r}") from None
         shift = jr.WLF(C1=c1, C2=c2, T_ref=tref)
     method = method_from_args(args, fit=True)
+    # the options name the default fitting model: leave the choice to fit_material, which pairs
+    # its default model with the default's tolerance and contact solver (as the API's default)
+    default = method == jr.methods.default_method(args.geometry, fit=True)
     fit = jfit.fit_material(data, dma, initial=jr.StandardLinearSolid(**init), layer=layer, radius=args.radius,
-                            geometry=args.geometry, method=method, free=free, shift=shift,
+                            geometry=args.geometry, method=None if default else method, free=free, shift=shift,
                             n_starts=args.starts, seed=args.seed, solver=args.solver,
                             progress=args.progress)
     report = fit.report()
