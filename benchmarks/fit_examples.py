@@ -9,8 +9,9 @@ fit ended on and the wall-clock and CPU time of the command (the process's CPU t
 threads: on a shared machine the better measure of the work). The examples run in the order
 given, each compiling its own programs (the first of them also pays jaxroll's import).
 
-Run: ``python benchmarks/fit_examples.py [--only NAME ...] [--record]`` (``--only``: these examples, in
-the order given) (``--record`` stores each
+Run: ``python benchmarks/fit_examples.py [--only NAME ...] [--grids] [--record]`` (``--only``: these examples, in
+the order given) (``--grids``: only the grid the default fit resolves over each sphere data set at the examples'
+start; ``--record`` stores each
 example as it finishes in the section ``fit_examples`` of benchmarks/numbers.json, keeping the
 examples not run; ``benchmarks/render_docs.py`` writes fitting/README.md's table from it).
 """
@@ -30,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 TRUE = {"G0": 3e6, "tau": 0.25, "f": 1.0}
+COMMAND = "python benchmarks/fit_examples.py --record"
 
 #: (name, command of fitting/README.md, data set): the README's examples, in its order
 EXAMPLES = [
@@ -39,9 +41,28 @@ EXAMPLES = [
               "--rho 1000 --method direct --out fit-joint", "rolling_example.csv"),
     ("cylinder", "jaxroll fit fit_cylinder.csv --geometry cylinder --radius 0.02 --initial G0=2e6,tau=0.35,f=0.7 "
                  "--starts 1 --out fit-cylinder", "fit_cylinder.csv"),
-    ("sphere", "jaxroll fit synthetic_sphere.csv --radius 0.02 --H 0.03 --initial G0=2e6,tau=0.35,f=0.7 --starts 1 "
-               "--out fit-full", "synthetic_sphere.csv"),
+    ("sphere", "jaxroll fit fit_sphere.csv --radius 0.02 --initial G0=2e6,tau=0.35,f=0.7 --starts 1 --out fit-full",
+     "fit_sphere.csv"),
 ]
+
+#: (data set, layer thickness [m]): the grids the default fit resolves at the examples' start
+GRIDS = [("synthetic_sphere.csv", 0.03), ("fit_sphere.csv", float("inf"))]
+START = {"G0": 2e6, "tau": 0.35, "f": 0.7}
+
+
+def default_grids() -> dict:
+    """The grid the default fit resolves over each sphere data set's envelope (every speed and
+    load) at the examples' start: what one evaluation of its model costs."""
+    import jaxroll as jr
+    from jaxroll.identify.fit import _resolve_for_fit, read_rolling_csv
+
+    out = {}
+    for name, H in GRIDS:
+        data = read_rolling_csv(jr.datasets.path(name))
+        method, _ = _resolve_for_fit(jr.methods.default_method("sphere", fit=True), jr.StandardLinearSolid(**START),
+                                     jr.Layer(H=H), 0.02, data, "sphere")
+        out[name] = {"spacing": float(method.grid.spacing), "window": int(method.grid.window)}
+    return out
 
 
 def _grid(method) -> str:
@@ -120,7 +141,19 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="+", choices=[e[0] for e in EXAMPLES], help="run these examples only")
     ap.add_argument("--record", action="store_true", help="store the results in benchmarks/numbers.json")
+    ap.add_argument("--grids", action="store_true", help="only the grids the default fit resolves (seconds)")
     args = ap.parse_args()
+    if args.grids:
+        grids = default_grids()
+        print(grids)
+        if args.record:
+            from _numbers import load as load_numbers
+            from _numbers import record
+
+            section = load_numbers().get("fit_examples", {})
+            section.pop("measured", None)
+            record("fit_examples", {**section, "command": COMMAND, "truth": TRUE, "grids": grids})
+        return
     chosen = {e[0]: e for e in EXAMPLES}
     for name in args.only or chosen:
         _, command, data = chosen[name]
@@ -134,10 +167,10 @@ def main():
             from _numbers import load as load_numbers
             from _numbers import record
 
-            rows = load_numbers().get("fit_examples", {}).get("rows", {})
-            rows[name] = row
-            record("fit_examples", {"command": "python benchmarks/fit_examples.py --record", "truth": TRUE,
-                                    "rows": rows})
+            section = load_numbers().get("fit_examples", {})
+            section.pop("measured", None)
+            section.setdefault("rows", {})[name] = row
+            record("fit_examples", {**section, "command": COMMAND, "truth": TRUE})
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ the check, so a number quoted in the docs cannot drift from the file its script 
 from __future__ import annotations
 
 import json
+import math
 import re
 import sys
 from pathlib import Path
@@ -410,6 +411,70 @@ def prony_rolling_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+#: fitting/README.md's examples (``fit_examples.py``): their number and the model each fits with
+FIT_EXAMPLES = {"direct": ("1", "direct"), "joint": ("2", "direct, with DMA"), "cylinder": ("3", "default: full 2D"),
+                "sphere": ("4", "default: full 3D")}
+_FIT_UNITS = {"G0": (1e6, "MPa"), "tau": (1.0, "s"), "f": (1.0, "")}
+
+
+def _fit_cell(row, name):
+    scale, unit = _FIT_UNITS[name]
+    lo, hi = (x / scale for x in row["ci95"][name])
+    miss = "" if row["covered"][name] else ", misses"
+    return (f"{row['params'][name] / scale:.3g}{(' ' + unit) if unit else ''} ({row['deviation'][name]:+.1%}) "
+            f"[{lo:.3g}, {hi:.3g}{miss}]").replace("%", " %")
+
+
+def fit_examples_table(numbers: dict) -> str:
+    """fitting/README.md: what each example returns and costs (``fit_examples.py --record``)."""
+    sec = numbers["fit_examples"]
+    rows = [(key, sec["rows"][key]) for key in FIT_EXAMPLES if key in sec["rows"]]
+    lines = [f"`{sec['command']}` ({_machine(sec['measured'])}), each example run as written in one process, one "
+             "after the other (each compiles its own programs; the first also pays the import). Value (deviation "
+             "from the truth) [95 % interval; \"misses\" where it does not hold the truth]. Time: wall clock on the "
+             "shared machine, and the process's CPU time over all threads, at the load average before the example.",
+             "", "| example | data | model (grid it ended on) | G0 | tau | f | reduced chi^2 | intervals | time |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for key, r in rows:
+        number, model = FIT_EXAMPLES[key]
+        grid = f" ({r['grid']})" if r["grid"] else ""
+        chi2 = f"{r['reduced_chi2']:.3g}" + (" (relative residuals)" if r["sigma_mode"] == "relative" else "")
+        lines.append(f"| {number} | `{r['data']}` | {model}{grid} | " + " | ".join(_fit_cell(r, n) for n in _FIT_UNITS)
+                     + f" | {chi2} | {r['intervals']} | {r['seconds']:.0f} s wall, {r['cpu_s']:.0f} s CPU "
+                       f"(load {r['load_before']:g}; {r['date']}) |")
+    pairs = [("G0,tau", "G0-tau"), ("G0,f", "G0-f"), ("tau,f", "tau-f")]
+    lines += ["", "Correlations of the log-parameters at the optimum (" + ", ".join(p for _, p in pairs) + "): "
+              + "; ".join(f"example {FIT_EXAMPLES[key][0]}: " + ", ".join(f"{r['correlation'][k]:+.3f}" for k, _ in pairs)
+                          for key, r in rows) + "."]
+    return "\n".join(lines)
+
+
+def _binomial_range(n: int, p: float, mass: float = 0.99):
+    """Central ``mass`` acceptance range of Binomial(n, p), as scipy's ``ppf`` at (1 -+ mass)/2."""
+    cdf, out, total = [], [], 0.0
+    for k in range(n + 1):
+        total += math.comb(n, k) * p**k * (1 - p) ** (n - k)
+        cdf.append(total)
+    lo = next(k for k, c in enumerate(cdf) if c >= (1 - mass) / 2)
+    hi = next(k for k, c in enumerate(cdf) if c >= (1 + mass) / 2 - 1e-12)
+    return lo, hi
+
+
+def fit_coverage(numbers: dict) -> str:
+    """fitting/README.md: the cylinder's default fit and its intervals' coverage (``fit_coverage.py``)."""
+    sec = numbers["fit_cylinder"]
+    per, (hits, total), draws = sec["coverage_per_parameter"], sec["coverage"], sec["draws"]
+    lo, hi = _binomial_range(draws, 0.95)
+    fitted = "; ".join(f"{n} {sec['params'][n] / _FIT_UNITS[n][0]:.3g} [{sec['ci95'][n][0] / _FIT_UNITS[n][0]:.3g}, "
+                       f"{sec['ci95'][n][1] / _FIT_UNITS[n][0]:.3g}]" for n in _FIT_UNITS)
+    return (f"Measured {_machine(sec['measured'])}: the shipped set gives {fitted} (G0 in MPa, tau in s), "
+            f"{sec['first_fit_cpu_s']:g} s of CPU with compilation ({sec['first_fit_s']:g} s wall at load average "
+            f"{sec['load_average']:g}). Over {draws} noise draws the 95 % intervals hold the truth in "
+            f"**{per['G0']} (G0), {per['tau']} (tau) and {per['f']} (f) of {draws} draws** ({hits} of {total} "
+            f"intervals); honest 95 % intervals give {lo}-{hi} per parameter with 99 % probability (binomial; the "
+            "three parameters miss together, so the draws are the independent trials).")
+
+
 #: generated block name -> renderer of numbers.json
 BLOCKS = {
     "prony-smoothness": prony_smoothness_table,
@@ -426,10 +491,13 @@ BLOCKS = {
     "default-grid-accuracy": default_grid_accuracy,
     "edge-smoothing": edge_smoothing,
     "scripts": scripts,
+    "fit-examples": fit_examples_table,
+    "fit-coverage": fit_coverage,
 }
 
 #: files holding generated blocks
-FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md", ROOT / "docs" / "dma.md"]
+FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md", ROOT / "docs" / "dma.md",
+         ROOT / "fitting" / "README.md"]
 
 _BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(\n<!-- /generated: \2 -->)", re.S)
 

@@ -18,13 +18,16 @@ EXTERNAL_PAGES = {
 
 #: links between the external sources, as the site names their pages
 _LINKS = {"](LOG.md": "](benchmarks-log.md", "](README.md)": "](benchmarks.md)"}
+#: fitting/README.md's links into docs/ and benchmarks/, as the site names those pages
+_FITTING_LINKS = {"](../docs/": "](", "](../benchmarks/LOG.md": "](benchmarks-log.md",
+                  "](../benchmarks/README.md": "](benchmarks.md"}
 
 
 def on_files(files, config):
     for page, source in EXTERNAL_PAGES.items():
         text = (ROOT / source).read_text(encoding="utf-8")
-        if source.startswith("benchmarks/"):
-            for old, new in _LINKS.items():
-                text = text.replace(old, new)
+        links = _LINKS if source.startswith("benchmarks/") else _FITTING_LINKS if source.startswith("fitting/") else {}
+        for old, new in links.items():
+            text = text.replace(old, new)
         files.append(File.generated(config, page, content=text))
     return files

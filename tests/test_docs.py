@@ -5,8 +5,8 @@ the files the examples read are the package's own (``jaxroll.datasets``). Python
 whole in a fresh interpreter. Shell blocks: every ``jaxroll`` command parses with the CLI's own
 parser (a misspelt option or a removed one fails here), and the commands that finish in
 seconds run for real, after the ``jaxroll datasets`` lines that precede them in the same
-document (they copy the example files into the folder); the slow ones (the full-model fit, the
-paper-resolution reproduce, regenerating the synthetic data) run under ``-m slow``.
+document (they copy the example files into the folder); the slow ones (the sphere's full-model
+fit, the paper-resolution reproduce, regenerating the synthetic data) run under ``-m slow``.
 """
 
 from __future__ import annotations
@@ -55,6 +55,14 @@ def _shell_commands(docs=DOCS):
 
 #: Commands that take more than ~20 s on 2 cores: run under -m slow.
 SLOW = ("--method full", "make_synthetic.py", "reproduce")
+
+
+def _slow(line: str) -> bool:
+    """A command of :data:`SLOW`, or a fit of a sphere's rolling data with the default method (the
+    full 3D model: minutes; the cylinder's default fit, the same code path in 2D, runs always)."""
+    default_sphere_fit = (line.startswith("jaxroll fit") and "--method" not in line and "--geometry cylinder" not in line
+                          and "--dma" not in line)
+    return default_sphere_fit or any(s in line for s in SLOW)
 
 
 def _env(light=True):
@@ -139,7 +147,7 @@ def test_every_shell_command_parses():
             if words and words[0] == "jaxroll":
                 parser.parse_args(words[1:])  # exits (SystemExit) on an unknown or malformed option
                 seen += 1
-    assert seen >= 4  # README: reproduce; fitting/README.md: three fits
+    assert seen >= 5  # README: reproduce; fitting/README.md: four fits
 
 
 def _runnable():
@@ -151,7 +159,7 @@ def _runnable():
             continue  # venv / pip lines: CI itself runs those
         if line.startswith("jaxroll datasets"):
             setup.setdefault(doc, []).append(line)
-        marks = [pytest.mark.slow] if any(s in line for s in SLOW) else []
+        marks = [pytest.mark.slow] if _slow(line) else []
         out.append(pytest.param(tuple(setup.get(doc, [])), line, marks=marks, id=f"{doc}:{line[:60]}"))
     return out
 

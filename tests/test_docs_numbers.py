@@ -1,6 +1,6 @@
 """The numbers the docs quote come from benchmarks/numbers.json, written by the benchmark scripts
 (``--record``): every generated block of the files of ``render_docs.FILES`` (README.md,
-benchmarks/README.md, docs/validation.md, docs/dma.md) equals what
+benchmarks/README.md, docs/validation.md, docs/dma.md, fitting/README.md) equals what
 benchmarks/render_docs.py writes from that file, so a re-measured number cannot leave a stale
 copy in the docs, and a hand edit of a generated number fails here."""
 
@@ -74,3 +74,19 @@ def test_recorded_edge_smoothing_bias_within_the_envelope_the_truncation_uses():
             assert abs(r["extrapolated"]) <= 100 * grids.EDGE_EXTRAPOLATED_BIAS[model], (key, r)
             assert abs(r["kappa"]) <= 100 * grids.EDGE_BIAS_SCALE[model] * k**1.5, (key, r)
             assert abs(r["kappa2"]) <= 100 * grids.EDGE_BIAS_SCALE[model] * (2 * k) ** 1.5, (key, r)
+
+
+def test_recorded_fit_examples_are_the_guides_commands():
+    # fitting/README.md's table (fit_examples.py --record) describes the guide's own commands: an
+    # edit of an example that is not re-measured fails here
+    import re
+
+    spec = importlib.util.spec_from_file_location("fit_examples", REPO / "benchmarks" / "fit_examples.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    text = (REPO / "fitting" / "README.md").read_text()
+    guide = [" ".join(line.split()) for block in re.findall(r"```bash\n(.*?)```", text, re.S)
+             for line in re.sub(r"\\\n\s*", " ", block).splitlines() if line.startswith("jaxroll fit")]
+    assert [command for _, command, _ in module.EXAMPLES] == guide
+    rows = json.loads((REPO / "benchmarks" / "numbers.json").read_text())["fit_examples"]["rows"]
+    assert {name: row["command"] for name, row in rows.items()} == {name: c for name, c, _ in module.EXAMPLES}
