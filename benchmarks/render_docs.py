@@ -420,9 +420,9 @@ _FIT_UNITS = {"G0": (1e6, "MPa"), "tau": (1.0, "s"), "f": (1.0, "")}
 def _fit_cell(row, name):
     scale, unit = _FIT_UNITS[name]
     lo, hi = (x / scale for x in row["ci95"][name])
-    miss = "" if row["covered"][name] else ", misses"
+    miss = "" if row["covered"][name] else " misses"
     return (f"{row['params'][name] / scale:.3g}{(' ' + unit) if unit else ''} ({row['deviation'][name]:+.1%}) "
-            f"[{lo:.3g}, {hi:.3g}{miss}]").replace("%", " %")
+            f"[{lo:.3g}, {hi:.3g}]{miss}").replace("%", " %")
 
 
 def fit_examples_table(numbers: dict) -> str:
@@ -446,6 +446,10 @@ def fit_examples_table(numbers: dict) -> str:
     lines += ["", "Correlations of the log-parameters at the optimum (" + ", ".join(p for _, p in pairs) + "): "
               + "; ".join(f"example {FIT_EXAMPLES[key][0]}: " + ", ".join(f"{r['correlation'][k]:+.3f}" for k, _ in pairs)
                           for key, r in rows) + "."]
+    if "grids" in sec:
+        lines += ["", "The grid the default fit resolves at the examples' start (`fit_examples.py --grids`): " + "; ".join(
+            f"`{name}`: {g['spacing'] * 1e3:.3g} mm cells, window {g['window']} x {g['window']} ({g['window'] ** 2} cells)"
+            for name, g in sec["grids"].items()) + "."]
     return "\n".join(lines)
 
 

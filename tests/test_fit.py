@@ -300,7 +300,7 @@ def test_direct_method_on_the_shipped_full_3d_set_is_flagged_as_misfit():
     assert "residuals weighted by the given sigma" in fit.report()
     # a correct model gives chi^2/dof = 1 +- 0.19 (57 dof); P(> 2) ~ 1e-7: the misfit is detected
     assert fit.reduced_chi2 > 2.0
-    # the biased fit excludes the true G0 (fitting/README.md: G0 -68 %, tau +23 %, f -31 %, chi^2/dof 4.9)
+    # the biased fit excludes the true G0 (fitting/README.md, example 1: G0 -67 %, tau +23 %, f -31 %, chi^2/dof 4.9)
     assert not _covered(fit, TRUE)["G0"]
 
 
@@ -308,7 +308,7 @@ def test_direct_method_on_the_shipped_full_3d_set_is_flagged_as_misfit():
 
 # a coarse 3D grid (cell 0.5 mm = r_c/8..r_c/11 at 80..150 N, period 10 cm): the data are made
 # by the same discretised model, so the fit has no model error (the discretisation bias against
-# the paper resolution is quantified in fitting/README.md)
+# the paper resolution was measured in benchmarks/LOG.md, "The fitting guide before its numbers were generated")
 FULL_COARSE = jr.Full(grid=jr.FixedGrid(5e-4, 29, period=0.1, n_terms=200))
 # the 0.1 m period of this coarse grid is below 20 r_c at the largest loads, and at 10 N and
 # 1e-4 m/s (4.6 cells per contact radius, R_r tiny) its moment and dissipation forms differ by
@@ -350,8 +350,8 @@ def test_full_3d_fit_differentiates_through_the_contact_solve_and_recovers_tau()
 
 # three-parameter full-model fits need the smoothed contact edge (edge_smoothing): without it
 # R_r(G0, tau, f) jumps in slope at every contact-set change and LM stalls along the G0-tau-f
-# valley (fitting/README.md). Design: 8 speeds 1e-4..1 m/s (both sides of the peak) x 10, 80,
-# 150 N on the coarse grid (cell 0.5 mm: 4.6..11 cells per contact radius), kappa = 0.5 (the
+# valley (benchmarks/LOG.md, the fitting guide's history). Design: 8 speeds 1e-4..1 m/s (both
+# sides of the peak) x 10, 80, 150 N on the coarse grid (cell 0.5 mm: 4.6..11 cells per contact radius), kappa = 0.5 (the
 # coarse grid needs more smoothing than the paper grid's 0.25 for the same residual jitter).
 FULL_SMOOTH = jr.Full(grid=FULL_COARSE.grid, edge_smoothing=0.5)
 DESIGN_SPEEDS, DESIGN_LOADS = np.logspace(-4, 0, 8), np.array([10.0, 80.0, 150.0])

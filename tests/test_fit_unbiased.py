@@ -193,7 +193,7 @@ def test_interval_coverage(geometry, n):
     """The default fit's profile-likelihood intervals over seeded noise draws from the far start
     (benchmarks/fit_coverage.py --draws records the same draws). The linearised intervals held
     the truth in 20-21 of the first 27 cylinder draws, below this bound: along the curved
-    G0-tau-f valley they were too narrow, and fits stopped in a second minimum (fitting/README.md).
+    G0-tau-f valley they were too narrow, and fits stopped in a second minimum (benchmarks/LOG.md).
     The sphere (about 20 times the cylinder's time per evaluation) was not run."""
     hits, lowest = _coverage(geometry, n)
     print(f"{geometry}: {hits} of {n} draws' intervals hold the truth")

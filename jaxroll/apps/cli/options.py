@@ -67,8 +67,8 @@ def method_args(p, *, fit=False, default=None):
     the default (:func:`jaxroll.methods.default_method`)."""
     g = p.add_argument_group("method", "the rolling-resistance method and its configuration (jaxroll.Direct, "
                              "jaxroll.Full, jaxroll.Slices)")
-    default = default or ("full, with the smoothed contact edge (--edge-smoothing 0.5) on a grid resolved from the "
-                          "data at the initial guess" if fit else
+    default = default or ("full, with the smoothed contact edge extrapolated to kappa -> 0, on a grid the fit "
+                          "resolves from the data (jaxroll.methods.default_method(geometry, fit=True))" if fit else
                           "full (the full 3D model for spheres, 2D for cylinders, on an infinite layer)")
     g.add_argument("--method", choices=list(METHOD_NAMES), default=None,
                    help=f"full (the full 2D/3D contact model), direct (stationary pressure, [ZG] sec. 4; a "
@@ -93,7 +93,8 @@ def method_args(p, *, fit=False, default=None):
                    help="automatic grid: cells per contact radius (default by the regime: full 3D 12-48, full 2D "
                         "12-400, slices 25-192)")
     g.add_argument("--edge-smoothing", dest="edge_smoothing", type=positive("--edge-smoothing"), default=None,
-                   help="--method full: smoothed contact edge kappa (0.25 on the paper's grid; for fits)")
+                   help="--method full: smoothed contact edge kappa, not extrapolated (a fit without --method: "
+                        "extrapolated from 0.125)")
     g.add_argument("--n-slices", dest="n_slices", type=count("--n-slices"), default=21,
                    help="PD | PP | SP: odd number of slices (21)")
 
