@@ -417,12 +417,17 @@ FIT_EXAMPLES = {"direct": ("1", "direct"), "joint": ("2", "direct, with DMA"), "
 _FIT_UNITS = {"G0": (1e6, "MPa"), "tau": (1.0, "s"), "f": (1.0, "")}
 
 
+def _g3(x: float) -> str:
+    """Three significant digits, trailing zeros kept (2.80, 1.00)."""
+    return f"{x:#.3g}".rstrip(".")
+
+
 def _fit_cell(row, name):
     scale, unit = _FIT_UNITS[name]
-    lo, hi = (x / scale for x in row["ci95"][name])
+    lo, hi = (_g3(x / scale) for x in row["ci95"][name])
     miss = "" if row["covered"][name] else " misses"
-    return (f"{row['params'][name] / scale:.3g}{(' ' + unit) if unit else ''} ({row['deviation'][name]:+.1%}) "
-            f"[{lo:.3g}, {hi:.3g}]{miss}").replace("%", " %")
+    return (f"{_g3(row['params'][name] / scale)}{(' ' + unit) if unit else ''} ({row['deviation'][name]:+.1%}) "
+            f"[{lo}, {hi}]{miss}").replace("%", " %")
 
 
 def fit_examples_table(numbers: dict) -> str:
@@ -469,8 +474,8 @@ def fit_coverage(numbers: dict) -> str:
     sec = numbers["fit_cylinder"]
     per, (hits, total), draws = sec["coverage_per_parameter"], sec["coverage"], sec["draws"]
     lo, hi = _binomial_range(draws, 0.95)
-    fitted = "; ".join(f"{n} {sec['params'][n] / _FIT_UNITS[n][0]:.3g} [{sec['ci95'][n][0] / _FIT_UNITS[n][0]:.3g}, "
-                       f"{sec['ci95'][n][1] / _FIT_UNITS[n][0]:.3g}]" for n in _FIT_UNITS)
+    fitted = "; ".join(f"{n} {_g3(sec['params'][n] / _FIT_UNITS[n][0])} [{_g3(sec['ci95'][n][0] / _FIT_UNITS[n][0])}, "
+                       f"{_g3(sec['ci95'][n][1] / _FIT_UNITS[n][0])}]" for n in _FIT_UNITS)
     return (f"Measured {_machine(sec['measured'])}: the shipped set gives {fitted} (G0 in MPa, tau in s), "
             f"{sec['first_fit_cpu_s']:g} s of CPU with compilation ({sec['first_fit_s']:g} s wall at load average "
             f"{sec['load_average']:g}). Over {draws} noise draws the 95 % intervals hold the truth in "
