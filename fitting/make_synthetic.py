@@ -6,7 +6,8 @@
   FULL 3D rolling-contact model (jr.Full through jr.rolling_resistance_grid) at the paper's
   resolution (period L = 0.2 m, cell a = 0.25 mm, 500 Fourier terms per axis, pressure window
   55 x 55 cells) with the smoothed contact edge (edge_smoothing = 0.25, so that a fit with the
-  same model sees a smooth R_r; fitting/README.md), with 2 % multiplicative Gaussian noise (numpy default_rng(2026)); the sigma
+  same model sees a smooth R_r; benchmarks/LOG.md, the fitting guide's history), with 2 %
+  multiplicative Gaussian noise (numpy default_rng(2026)); the sigma
   column is 2 % of the noise-free value. ``--method direct`` writes the direct-method
   version instead (seconds; for comparison only).
 * dma_example.csv + rolling_example.csv: a joint DMA + rolling example: DMA at 3 temperatures
@@ -17,7 +18,6 @@ The generating model, resolution, seed and true parameters are also written as `
 lines at the top of synthetic_sphere.csv (jaxroll.identify.fit.read_rolling_csv skips them).
 
 Usage: python fitting/make_synthetic.py [--method full|direct] [--spacing 2.5e-4] [--out jaxroll/datasets]
-Run time (2 cores): about 15-30 s for the full-model set at the default resolution.
 """
 
 import argparse
