@@ -365,7 +365,8 @@ def _reduced(method, layer) -> bool:
 
 
 @eqx.filter_jit
-def _map_program(method, material, shift, layer, R, P, T, V, count, directions, *, geometry, reduced):
+def _map_program(method, material, shift, layer, R, P, T, V, count, directions, *, geometry, reduced,
+                 adjoint=True):
     """Values, result codes, ``dR/dT``, ``dR/dH``, the derivatives along the material
     ``directions`` and contact radii at the points ``(T, V, P)`` (1D), the first ``count`` by
     :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in the given order (the full models:
@@ -373,7 +374,10 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
     solved). The derivatives are forward
     mode: the tangent ``dT = 1`` at every point gives every ``dR_i/dT_i`` at once (each point
     depends on its own temperature only; the warm starts carry no derivative), ``dH = 1`` every
-    ``dR_i/dH``, a material tangent every derivative along it."""
+    ``dR_i/dH``, a material tangent every derivative along it. ``adjoint`` (static; default):
+    the full models differentiate each point's value by one transposed contact solve that all
+    these tangents share (``evaluate_points(adjoint=True)``), instead of one tangent solve per
+    direction; ``False``: one per direction (the same numbers to the solver tolerance)."""
     from .materials.material import shift_factor
     from .rolling import _validated
 
@@ -381,9 +385,10 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
         mats, lays, ax = _batched_models(mat, shift, with_cover_thickness(layer, H), T)
         if reduced:  # the reference material at V a_T (see _reduced)
             res = method.evaluate_points(mat, lays, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, 0, 0), count=count)
+                                         geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint)
         else:
-            res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count)
+            res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count,
+                                         adjoint=adjoint)
         lay_axes = None if ax is None else _batch_axes(lays)
         res = jax.vmap(lambda r, m, l, p, v: _validated(method, m, l, r, R, p, v, geometry),
                        in_axes=(0, 0, lay_axes, 0, 0))(res, mats, lays, P, V)
