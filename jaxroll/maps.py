@@ -24,7 +24,8 @@ class ResistanceMap:
         temperatures [K], speeds [m/s]: the axes.
         value: ``R_r`` [N for a sphere, N/m for a cylinder], shape ``(n_T, n_V)``.
         valid: ``result == RESULTS.successful`` per point.
-        dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (``jax.grad``).
+        dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (per point, one adjoint solve
+            for both with the full models).
         seconds: wall time of the compiled map (values and gradients, compilation excluded)
             divided by the number of points [s].
         result: the :data:`jaxroll.RESULTS` code per point (why a point is not valid).
@@ -84,7 +85,8 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
                    method=None, measured_temperatures=None, measured_frequencies=None) -> ResistanceMap:
     """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
     ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
-    ``dR_r/dH`` (forward-mode derivatives), all points in one compiled program
+    ``dR_r/dH`` (with the full models, one adjoint solve per point for all derivatives: the
+    ``adjoint`` of :func:`_map_program`), all points in one compiled program
     (:meth:`~jaxroll.methods.AbstractMethod.evaluate_points`: the full models solve the points
     one after the other in the order of the reduced speed ``V a_T``, each warm-started from the
     previous one; per point the numbers of :func:`jaxroll.rolling_resistance` to the solver
@@ -138,7 +140,7 @@ class MapPoints:
 
     Attributes:
         value: ``R_r`` [N or N/m] per point; result: :data:`jaxroll.RESULTS` code; valid.
-        dR_dT [per K], dR_dH [per m]: derivatives at each point (forward mode).
+        dR_dT [per K], dR_dH [per m]: derivatives at each point (:func:`_map_program`).
         dR_ddirection: ``(n_directions, n)``, the derivative along each material direction
             (``d R_r / d s`` of ``material + s * direction`` at ``s = 0``).
         contact_radius [m]: the solved contact radius or half-width; seconds: wall time per
