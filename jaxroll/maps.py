@@ -24,7 +24,8 @@ class ResistanceMap:
         temperatures [K], speeds [m/s]: the axes.
         value: ``R_r`` [N for a sphere, N/m for a cylinder], shape ``(n_T, n_V)``.
         valid: ``result == RESULTS.successful`` per point.
-        dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (``jax.grad``).
+        dR_dT: ``dR_r/dT`` [N/K or N/(m K)] and dR_dH: ``dR_r/dH`` [N/m or N/m^2] (per point, one adjoint solve
+            for both with the full models).
         seconds: wall time of the compiled map (values and gradients, compilation excluded)
             divided by the number of points [s].
         result: the :data:`jaxroll.RESULTS` code per point (why a point is not valid).
@@ -84,7 +85,8 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
                    method=None, measured_temperatures=None, measured_frequencies=None) -> ResistanceMap:
     """``R_r(T, V)`` of a rigid sphere or cylinder on a layer of a material characterised at
     ``shift.T_ref`` (``jr.at_temperature(material, shift, T)``), with ``dR_r/dT`` and
-    ``dR_r/dH`` (forward-mode derivatives), all points in one compiled program
+    ``dR_r/dH`` (with the full models, one adjoint solve per point for all derivatives: the
+    ``adjoint`` of :func:`_map_program`), all points in one compiled program
     (:meth:`~jaxroll.methods.AbstractMethod.evaluate_points`: the full models solve the points
     one after the other in the order of the reduced speed ``V a_T``, each warm-started from the
     previous one; per point the numbers of :func:`jaxroll.rolling_resistance` to the solver
@@ -138,7 +140,7 @@ class MapPoints:
 
     Attributes:
         value: ``R_r`` [N or N/m] per point; result: :data:`jaxroll.RESULTS` code; valid.
-        dR_dT [per K], dR_dH [per m]: derivatives at each point (forward mode).
+        dR_dT [per K], dR_dH [per m]: derivatives at each point (:func:`_map_program`).
         dR_ddirection: ``(n_directions, n)``, the derivative along each material direction
             (``d R_r / d s`` of ``material + s * direction`` at ``s = 0``).
         contact_radius [m]: the solved contact radius or half-width; seconds: wall time per
@@ -365,7 +367,8 @@ def _reduced(method, layer) -> bool:
 
 
 @eqx.filter_jit
-def _map_program(method, material, shift, layer, R, P, T, V, count, directions, *, geometry, reduced):
+def _map_program(method, material, shift, layer, R, P, T, V, count, directions, *, geometry, reduced,
+                 adjoint=True):
     """Values, result codes, ``dR/dT``, ``dR/dH``, the derivatives along the material
     ``directions`` and contact radii at the points ``(T, V, P)`` (1D), the first ``count`` by
     :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in the given order (the full models:
@@ -373,7 +376,10 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
     solved). The derivatives are forward
     mode: the tangent ``dT = 1`` at every point gives every ``dR_i/dT_i`` at once (each point
     depends on its own temperature only; the warm starts carry no derivative), ``dH = 1`` every
-    ``dR_i/dH``, a material tangent every derivative along it."""
+    ``dR_i/dH``, a material tangent every derivative along it. ``adjoint`` (static; default):
+    the full models differentiate each point's value by one transposed contact solve that all
+    these tangents share (``evaluate_points(adjoint=True)``), instead of one tangent solve per
+    direction; ``False``: one per direction (the same numbers to the solver tolerance)."""
     from .materials.material import shift_factor
     from .rolling import _validated
 
@@ -381,9 +387,10 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
         mats, lays, ax = _batched_models(mat, shift, with_cover_thickness(layer, H), T)
         if reduced:  # the reference material at V a_T (see _reduced)
             res = method.evaluate_points(mat, lays, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, 0, 0), count=count)
+                                         geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint)
         else:
-            res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count)
+            res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count,
+                                         adjoint=adjoint)
         lay_axes = None if ax is None else _batch_axes(lays)
         res = jax.vmap(lambda r, m, l, p, v: _validated(method, m, l, r, R, p, v, geometry),
                        in_axes=(0, 0, lay_axes, 0, 0))(res, mats, lays, P, V)

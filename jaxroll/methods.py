@@ -72,7 +72,7 @@ class AbstractMethod(eqx.Module):
                            speeds)
 
     def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0),
-                        order=None, count=None) -> RollingResult:
+                        order=None, count=None, adjoint=False) -> RollingResult:
         """``R_r`` at ``n`` points: each of ``material``, ``layer``, ``R`` [m], ``P`` [N or
         N/m], ``V`` [m/s] is batched along a leading axis of length ``n`` (``axes`` entry 0:
         every array leaf has it; scalar leaves are shared, so ``jr.Layer(H=thicknesses)`` keeps
@@ -81,8 +81,10 @@ class AbstractMethod(eqx.Module):
         in (methods that warm-start along the batch, :meth:`Full.evaluate_points`); results
         are in the given point order either way. ``count``: solve only the first ``count``
         points of that order (:meth:`Full.evaluate_points`); the default evaluates all.
+        ``adjoint``: only ``value`` is differentiated, by one adjoint solve per point shared by
+        every tangent direction (:meth:`Full.evaluate_points`; other methods ignore it).
         Default: ``jax.vmap`` of :meth:`evaluate`."""
-        del order, count
+        del order, count, adjoint
         args = (material, layer, R, P, V)
         _batch_size(args, axes)
         in_axes = tuple(None if ax is None else jax.tree_util.tree_map(lambda x: 0 if np.ndim(x) else None, a)
@@ -357,7 +359,8 @@ class Full(_GridMethod):
 
         return jax.lax.scan(one_speed, _contact.WarmStart.none(shape), speeds)[1]
 
-    def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None, count=None):
+    def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None, count=None,
+                        adjoint=False):
         """``R_r`` at ``n`` points (arguments batched or shared as in
         :meth:`AbstractMethod.evaluate_points`), solved one after the other in a ``lax.scan``
         along ``order`` (default: as given; ``count``, a traced integer: only the first
@@ -370,7 +373,11 @@ class Full(_GridMethod):
         cold start, each point costs about a point of :meth:`evaluate_grid`'s table, plus its own
         kernel (and the layer's integrals when the layer is batched). Each
         point equals :meth:`evaluate` to the solver tolerance; derivatives are implicit per
-        point (the start is data only)."""
+        point (the start is data only). ``adjoint=True``: the derivatives of ``value`` alone (the
+        other fields carry none), each point's by one reverse-mode pass (one transposed contact
+        solve, :func:`_value_by_adjoint`) that every tangent direction shares: forward-mode
+        derivatives along ``k`` directions (``jax.vmap`` of ``jax.jvp``) then cost one solve per
+        point instead of ``k``."""
         model = _FULL_MODELS[geometry]
         args = (material, layer, R, P, V)
         n = _batch_size(args, axes)
@@ -391,12 +398,16 @@ class Full(_GridMethod):
         # material and layer shared: their speed-independent work once (as in evaluate_grid)
         shared = model.kernel_builder(material, layer, self.grid) if axes[0] is None and axes[1] is None else None
 
+        def point(start, m, l, r, p, v, size):
+            kernel = (shared or model.kernel_builder(m, l, self.grid))(v)
+            s = self._solve(model, kernel, r, p, size, init=start)
+            return self._result(model, s, l, v, m), s.contact
+
         def solve(start, xs):
             i, s_next, r_next = xs
-            m, l, r, p, v = at(i)
-            kernel = (shared or model.kernel_builder(m, l, self.grid))(v)
-            s = self._solve(model, kernel, r, p, sizes[i], init=start)
-            return _contact.WarmStart.stretched(s.contact, s_next, r_next), self._result(model, s, l, v, m)
+            args = (start, *at(i), sizes[i])
+            res, contact = _value_by_adjoint(point, args) if adjoint else point(*args)
+            return _contact.WarmStart.stretched(contact, s_next, r_next), res
 
         def step(start, xs):
             if count is None:
@@ -410,6 +421,47 @@ class Full(_GridMethod):
             return out
         inverse = jnp.zeros(n, order.dtype).at[order].set(jnp.arange(n, dtype=order.dtype))
         return jax.tree_util.tree_map(lambda x: x[inverse], out)
+
+
+def _value_by_adjoint(point, args):
+    """``point(*args)`` (a :class:`RollingResult` and data) whose only derivative is that of the
+    result's ``value``, by reverse mode: ``jax.vjp`` of ``value`` w.r.t. every floating-point
+    input (the arguments and the arrays ``point`` closes over, e.g. a shared kernel factor: each
+    point's contact solve differentiated by one transposed solve), contracted with the incoming
+    tangents. Under ``jax.vmap`` of ``jax.jvp`` the pass depends on the primals only, so it runs
+    once for all the tangent directions. The other outputs carry zero derivatives."""
+    dyn, static = eqx.partition(args, eqx.is_array)  # Python scalars (a layer's rho = 0) stay static
+    # every value the point reads, its arguments and what it closes over, as explicit inputs
+    closed, shapes = jax.make_jaxpr(lambda d: point(*eqx.combine(d, static)), return_shape=True)(dyn)
+    consts = list(closed.consts)
+    floats = lambda tree: eqx.filter(tree, eqx.is_inexact_array)  # noqa: E731
+
+    def converted(d, *c):
+        out = jax.core.eval_jaxpr(closed.jaxpr, c, *jax.tree_util.tree_leaves(d))
+        return jax.tree_util.tree_unflatten(jax.tree_util.tree_structure(shapes), out)
+
+    @jax.custom_jvp
+    def run(consts, dyn):
+        return converted(dyn, *consts)
+
+    @run.defjvp
+    def run_jvp(primals, tangents):
+        diff, rest = eqx.partition(primals, eqx.is_inexact_array)
+
+        def value(diff):
+            c, d = eqx.combine(diff, rest)
+            out = converted(d, *c)
+            return out[0].value, out
+
+        _, vjp, out = jax.vjp(value, diff, has_aux=True)
+        (grads,) = vjp(jnp.ones_like(out[0].value))
+        dots = [jnp.real(jnp.sum(g * t)) for g, t in zip(jax.tree_util.tree_leaves(grads),
+                                                        jax.tree_util.tree_leaves(floats(tangents)))]
+        zeros = jax.tree_util.tree_map(
+            lambda x: jnp.zeros_like(x) if eqx.is_inexact_array(x) else np.zeros(np.shape(x), jax.dtypes.float0), out)
+        return out, eqx.tree_at(lambda z: z[0].value, zeros, functools.reduce(jnp.add, dots, jnp.zeros(())))
+
+    return run(consts, dyn)
 
 
 def _sequential_under_vmap(method, args, geometry):
