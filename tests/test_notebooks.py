@@ -15,7 +15,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from _cases import light_xla_flags
+from _cases import default_xla_flags, light_xla_flags
 
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
@@ -62,10 +62,11 @@ def test_notebook_executes(path, quick, tmp_path, monkeypatch):
     nb = nbformat.read(work, as_version=4)
     if quick:
         monkeypatch.setenv("JAXROLL_NOTEBOOK_QUICK", "1")
-        if path.stem not in RUN_BOUND:  # a few points per program: compile-bound (tests/_cases.py)
-            monkeypatch.setenv("XLA_FLAGS", light_xla_flags(os.environ.get("XLA_FLAGS")))
     else:
         monkeypatch.delenv("JAXROLL_NOTEBOOK_QUICK", raising=False)
+    # a few points per program: compile-bound; the fits run-bound (tests/_cases.py)
+    light = quick and path.stem not in RUN_BOUND
+    monkeypatch.setenv("XLA_FLAGS", (light_xla_flags if light else default_xla_flags)(os.environ.get("XLA_FLAGS")))
     # the notebooks run in a temporary folder and read their data through jr.datasets
     monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel picks its inline backend, as for a user
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
