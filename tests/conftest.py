@@ -5,16 +5,11 @@ and then runs in milliseconds). Settings made here before jax starts cut that ti
 tests and for every subprocess they start (README blocks, CLI commands, notebook kernels), which
 inherit the environment:
 
-- ``--xla_backend_optimization_level=0`` (``tests/_cases.py``, ``XLA_LIGHT``): XLA:CPU without
-  LLVM's optimisation passes, for the test processes and the interpreters they start. A program
-  compiles a third faster (a slice program's value and gradient: 4.0 -> 2.6 s of CPU) and runs up
-  to 2x slower (the coarse full 3D point: 7 -> 14 ms); the suite compiles thousands of programs
-  and runs each a few times, so it costs less CPU (benchmarks/LOG.md, "What the default test suite
-  costs"). The run-bound interpreters (the ``jaxroll fit`` commands of the docs, notebook 03's fits)
-  keep XLA's default (``tests/_cases.py``, ``default_xla_flags``); ``JAXROLL_TEST_XLA_O0=0``
-  keeps it everywhere, for comparison. Not to be confused with ``jax_disable_most_optimizations``,
-  which also switches off LLVM's expensive passes: there a run-bound test (test_direct's periodic
-  gradient) went from 4 s to more than 250 s.
+- XLA:CPU flags that compile faster (``tests/_xla.py``): the element-wise emitters instead of the
+  fusion emitters, and no LLVM optimisation passes, for the test processes and the interpreters
+  they start (which inherit the environment); the run-bound interpreters (the docs' ``jaxroll
+  fit`` commands, notebook 03's fits) keep LLVM's passes. ``JAXROLL_TEST_XLA_DEFAULT=1``: XLA's
+  defaults everywhere, for comparison.
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
@@ -38,10 +33,10 @@ import shutil
 import tempfile
 import time
 
+import _xla  # tests/_xla.py: no jax import
+
 if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
-    if os.environ.get("JAXROLL_TEST_XLA_O0", "1") != "0" and "optimization_level" not in os.environ.get("XLA_FLAGS", ""):
-        # see the module docstring; inherited by the interpreters the tests start (tests/_cases.py)
-        os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --xla_backend_optimization_level=0".strip()
+    os.environ["XLA_FLAGS"] = _xla.light_xla_flags(os.environ.get("XLA_FLAGS"))  # see the module docstring
     # XLA:CPU logs three lines per program it loads from a persistent cache on some x86 CPUs
     # ("Loading XLA:CPU AOT result ... prefer-no-gather", an upstream XLA message): keep them out
     # of the subprocesses' stderr that CLI tests read
