@@ -141,6 +141,41 @@ def pytest_runtest_protocol(item, nextitem):
         out.write(f"{item.nodeid}\t{cpu:.2f}\t{wall:.2f}\t{os.getloadavg()[0]:.1f}\n")
 
 
+#: XLA options added to every program compiled while a ``run_bound`` test runs (see :func:`_run_bound`)
+_COMPILE_OVERRIDES: dict = {}
+
+
+def _with_overrides(get_compile_options):
+    def wrapped(*args, env_options_overrides=None, **kwargs):
+        if _COMPILE_OVERRIDES:
+            env_options_overrides = {**_COMPILE_OVERRIDES, **(env_options_overrides or {})}
+        return get_compile_options(*args, env_options_overrides=env_options_overrides, **kwargs)
+    return wrapped
+
+
+try:  # jax's internal hook for per-program XLA options (``jax.jit(..., compiler_options=)`` uses it)
+    from jax._src import compiler as _compiler
+
+    _compiler.get_compile_options = _with_overrides(_compiler.get_compile_options)
+except (ImportError, AttributeError):  # another jax: run-bound tests then compile as the others
+    pass
+
+
+@pytest.fixture(autouse=True)
+def _run_bound(request):
+    """Tests marked ``run_bound`` (programs that run long: fits, many solves) compile with LLVM's
+    optimisation passes (XLA's default level, 3), the others without (``tests/_xla.py``). A
+    program that another test compiled before is reused as it is."""
+    if request.node.get_closest_marker("run_bound") is None or os.environ.get(_xla.DEFAULT_ENV):
+        yield
+        return
+    _COMPILE_OVERRIDES["xla_backend_optimization_level"] = 3
+    try:
+        yield
+    finally:
+        _COMPILE_OVERRIDES.clear()
+
+
 #: Memory mappings of this process above which the compiled programs are dropped after a test
 #: module: half the usual kernel limit (``vm.max_map_count``, 65530), far above what one module adds
 MAX_MAPPINGS = 32768
