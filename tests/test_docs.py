@@ -59,8 +59,8 @@ SLOW = ("--method full", "make_synthetic.py", "reproduce")
 
 def _env(light=True):
     """The test session's environment (its compilation cache, see conftest.py), with XLA's light
-    compile flags where ``light`` (tests/_cases.py: an interpreter that runs a few points per
-    program is compile-bound; a fit is not) and without a forced host device count that another
+    compile flags where ``light`` (tests/_xla.py: an interpreter that runs a few points per
+    program is compile-bound; a fit is not, and keeps LLVM's passes) and without a forced host device count that another
     test may have set, importing the jaxroll under test (installed, or this checkout) from any
     folder."""
     env = dict(os.environ)

@@ -22,8 +22,9 @@ nbclient = pytest.importorskip("nbclient")
 
 NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
 #: Notebooks whose quick run is bound by running programs, not by compiling them (CPU seconds of
-#: the quick run with jax's default flags -> with XLA's light flags): 03's fits, 42.6 -> 63.9 s.
-#: They keep the default flags; the others compile faster (01: 39.1 -> 31.5 s, 04: 33.9 -> 25.0 s).
+#: the quick run with jax's default flags -> with LLVM's passes off): 03's fits, 42.6 -> 63.9 s.
+#: They keep LLVM's passes (tests/_xla.py); the others compile faster (01: 39.1 -> 31.5 s, 04:
+#: 33.9 -> 25.0 s).
 RUN_BOUND = ("03_material_identification",)
 #: The notebook that runs at reduced resolution in the default suite: the first a user opens.
 DEFAULT = "01_quickstart"
