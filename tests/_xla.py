@@ -1,10 +1,10 @@
 """XLA:CPU compile flags of the test suite (imported by tests/conftest.py before jax starts).
 
-The suite is bound by XLA compilation: thousands of programs, each run a few times. Measured on
-one program each (CPU seconds, benchmarks/LOG.md "What the default test suite costs"): a slice
-program's value and gradient compiles in 4.0 s with XLA's defaults, 2.5 s with
-:data:`XLA_COMPILE_FAST` and 1.2 s with :data:`XLA_LIGHT` as well; a coarse full 3D point
-compiles in 4.4 / 3.0 / 1.0 s and runs in 7 / 7 / 14 ms.
+The suite is bound by XLA compilation: thousands of programs, each run a few times. Measured by
+``python benchmarks/xla_flags.py`` (CPU seconds; benchmarks/LOG.md, "What the default test suite
+costs"): a slice program's value and gradient compiles in 4.1 s with XLA's defaults, 2.4 s with
+:data:`XLA_COMPILE_FAST` and 1.1 s with :data:`XLA_LIGHT` as well; a coarse full 3D point
+compiles in 4.2 / 3.1 / 0.9 s and runs in 7 / 7 / 13 ms.
 """
 
 import os
