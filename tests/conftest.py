@@ -8,8 +8,9 @@ inherit the environment:
 - XLA:CPU flags that compile faster (``tests/_xla.py``): the element-wise emitters instead of the
   fusion emitters, and no LLVM optimisation passes, for the test processes and the interpreters
   they start (which inherit the environment); the run-bound interpreters (the docs' ``jaxroll
-  fit`` commands, notebook 03's fits) keep LLVM's passes. ``JAXROLL_TEST_XLA_DEFAULT=1``: XLA's
-  defaults everywhere, for comparison.
+  fit`` commands, notebook 03's fits) keep LLVM's passes, and so do the programs of tests marked
+  ``run_bound`` (:func:`_run_bound`). ``JAXROLL_TEST_XLA_DEFAULT=1``: XLA's defaults everywhere,
+  for comparison.
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
