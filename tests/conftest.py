@@ -165,11 +165,13 @@ except (ImportError, AttributeError):  # another jax: run-bound tests then compi
 @pytest.fixture(autouse=True)
 def _run_bound(request):
     """Tests marked ``run_bound`` (programs that run long: fits, many solves) compile with LLVM's
-    optimisation passes (XLA's default level, 3), the others without (``tests/_xla.py``). A
-    program that another test compiled before is reused as it is."""
+    optimisation passes (XLA's default level, 3), the others without (``tests/_xla.py``). The
+    process's compiled programs are dropped first, so that the test does not reuse one that an
+    earlier test compiled without them (the persistent cache keys the level)."""
     if request.node.get_closest_marker("run_bound") is None or os.environ.get(_xla.DEFAULT_ENV):
         yield
         return
+    jax.clear_caches()
     _COMPILE_OVERRIDES["xla_backend_optimization_level"] = 3
     try:
         yield
