@@ -44,19 +44,7 @@ def central_difference(fun, params: dict, name: str, rel_step: float = 1e-5) -> 
     return (float(fun(up)) - float(fun(down))) / (2 * h)
 
 
-#: XLA:CPU without LLVM's optimisation passes. For the interpreters the suite starts (notebook
-#: kernels, README blocks, CLI commands), whose programs run a few points each, so that compiling
-#: them is nearly all their cost: measured on notebook 02 (quick), 70 -> 47 s of CPU. Programs
-#: then run up to 2x slower: a run-bound interpreter costs more (notebook 03's fits, 42.6 ->
-#: 63.9 s), and the test process itself keeps the default (tests/conftest.py, ``JAXROLL_TEST_XLA_O0``).
-XLA_LIGHT = "--xla_backend_optimization_level=0"
-
-
-def light_xla_flags(flags: str | None) -> str:
-    """``flags`` (an ``XLA_FLAGS`` value) with :data:`XLA_LIGHT` and without a forced host device
-    count that another test may have set."""
-    kept = [f for f in (flags or "").split() if "device_count" not in f and "optimization_level" not in f]
-    return " ".join([*kept, XLA_LIGHT])
+from _xla import XLA_LIGHT, default_xla_flags, light_xla_flags  # noqa: E402, F401  (re-exported for the tests)
 
 
 def compilations(caplog, fn) -> int:

@@ -5,11 +5,12 @@ and then runs in milliseconds). Settings made here before jax starts cut that ti
 tests and for every subprocess they start (README blocks, CLI commands, notebook kernels), which
 inherit the environment:
 
-- Opt-in (``JAXROLL_TEST_XLA_O0=1``): ``--xla_backend_optimization_level=0``, XLA:CPU without
-  LLVM's optimisation passes. Compile-bound files compile a quarter to a third faster, but
-  run-bound programs run up to 2x slower or worse, so it is not the default here; the notebook
-  kernels and README interpreters that the tests start, which run a few points per program, get
-  it always (``tests/_cases.py``, ``XLA_LIGHT``).
+- XLA:CPU flags that compile faster (``tests/_xla.py``): the element-wise emitters instead of the
+  fusion emitters, and no LLVM optimisation passes, for the test processes and the interpreters
+  they start (which inherit the environment); the run-bound interpreters (the docs' ``jaxroll
+  fit`` commands, notebook 03's fits) keep LLVM's passes, and so do the programs of tests marked
+  ``run_bound`` (:func:`_run_bound`). ``JAXROLL_TEST_XLA_DEFAULT=1``: XLA's defaults everywhere,
+  for comparison.
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
@@ -33,9 +34,10 @@ import shutil
 import tempfile
 import time
 
+import _xla  # tests/_xla.py: no jax import
+
 if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
-    if os.environ.get("JAXROLL_TEST_XLA_O0"):  # opt-in: see the module docstring
-        os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --xla_backend_optimization_level=0".strip()
+    os.environ["XLA_FLAGS"] = _xla.light_xla_flags(os.environ.get("XLA_FLAGS"))  # see the module docstring
     # XLA:CPU logs three lines per program it loads from a persistent cache on some x86 CPUs
     # ("Loading XLA:CPU AOT result ... prefer-no-gather", an upstream XLA message): keep them out
     # of the subprocesses' stderr that CLI tests read
@@ -138,6 +140,43 @@ def pytest_runtest_protocol(item, nextitem):
     cpu, wall = _cpu_seconds() - cpu0, time.perf_counter() - wall0
     with open(f"{log}.{os.environ.get('PYTEST_XDIST_WORKER', 'main')}", "a") as out:
         out.write(f"{item.nodeid}\t{cpu:.2f}\t{wall:.2f}\t{os.getloadavg()[0]:.1f}\n")
+
+
+#: XLA options added to every program compiled while a ``run_bound`` test runs (see :func:`_run_bound`)
+_COMPILE_OVERRIDES: dict = {}
+
+
+def _with_overrides(get_compile_options):
+    def wrapped(*args, env_options_overrides=None, **kwargs):
+        if _COMPILE_OVERRIDES:
+            env_options_overrides = {**_COMPILE_OVERRIDES, **(env_options_overrides or {})}
+        return get_compile_options(*args, env_options_overrides=env_options_overrides, **kwargs)
+    return wrapped
+
+
+try:  # jax's internal hook for per-program XLA options (``jax.jit(..., compiler_options=)`` uses it)
+    from jax._src import compiler as _compiler
+
+    _compiler.get_compile_options = _with_overrides(_compiler.get_compile_options)
+except (ImportError, AttributeError):  # another jax: run-bound tests then compile as the others
+    pass
+
+
+@pytest.fixture(autouse=True)
+def _run_bound(request):
+    """Tests marked ``run_bound`` (programs that run long: fits, many solves) compile with LLVM's
+    optimisation passes (XLA's default level, 3), the others without (``tests/_xla.py``). The
+    process's compiled programs are dropped first, so that the test does not reuse one that an
+    earlier test compiled without them (the persistent cache keys the level)."""
+    if request.node.get_closest_marker("run_bound") is None or os.environ.get(_xla.DEFAULT_ENV):
+        yield
+        return
+    jax.clear_caches()
+    _COMPILE_OVERRIDES["xla_backend_optimization_level"] = 3
+    try:
+        yield
+    finally:
+        _COMPILE_OVERRIDES.clear()
 
 
 #: Memory mappings of this process above which the compiled programs are dropped after a test

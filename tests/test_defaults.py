@@ -94,6 +94,7 @@ def test_resistance_map_default_is_the_full_model():
     assert abs(float(direct.value[0, 0]) / float(m.value[0, 0]) - 1) > 1e-3  # another method, another number
 
 
+@pytest.mark.run_bound  # its fits run long: 117 s of CPU without LLVM's passes, 23 s with them
 def test_fit_material_default_resolves_its_grid_and_regrids_once():
     """Without a method a rolling fit uses the smoothed full model on a grid it resolves from the
     data at the initial guess; starting at half the true G0 the contact half-width at the fitted

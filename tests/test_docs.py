@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 import jaxroll
-from _cases import light_xla_flags
+from _cases import default_xla_flags, light_xla_flags
 from jaxroll.apps.cli import build_parser
 
 REPO = Path(__file__).resolve().parents[1]
@@ -67,22 +67,25 @@ def _slow(line: str) -> bool:
 
 def _env(light=True):
     """The test session's environment (its compilation cache, see conftest.py), with XLA's light
-    compile flags where ``light`` (tests/_cases.py: an interpreter that runs a few points per
-    program is compile-bound; a fit is not) and without a forced host device count that another
+    compile flags where ``light`` (tests/_xla.py: an interpreter that runs a few points per
+    program is compile-bound; a fit is not, and keeps LLVM's passes) and without a forced host device count that another
     test may have set, importing the jaxroll under test (installed, or this checkout) from any
     folder."""
     env = dict(os.environ)
-    flags = [f for f in env.get("XLA_FLAGS", "").split() if "device_count" not in f]
-    env["XLA_FLAGS"] = light_xla_flags(" ".join(flags)) if light else " ".join(flags)
+    env["XLA_FLAGS"] = (light_xla_flags if light else default_xla_flags)(env.get("XLA_FLAGS"))
     env["PYTHONPATH"] = os.pathsep.join([str(Path(jaxroll.__file__).parents[1]), *filter(None, [env.get("PYTHONPATH")])])
     return env
 
 
 #: Top-level statements (by their first characters) that the default suite leaves out of a block,
-#: because they compile for half a minute or more while the same transformation is checked by
-#: the library's own tests (the gradient of the full 3D model: tests/test_api.py,
-#: tests/test_batched.py); under ``-m slow`` every block runs whole, as written.
-QUICK_SKIP = {"README.md:python0": ("dRr_dH = jax.grad(",)}
+#: because they compile for 10-30 s each while the library's own tests check the same call in the
+#: test process, whose compiled programs other tests share: the gradient of the full 3D model
+#: (tests/test_api.py, tests/test_batched.py), a jitted vmap of the resolved default
+#: (tests/test_api.py's full-sphere case, tests/test_defaults.py's traced sweep) and the direct
+#: rolling fit of the shipped example (tests/test_fit.py, and the fitting/README.md commands
+#: below, which fit the same file). Under ``-m slow`` every block runs whole, as written.
+QUICK_SKIP = {"README.md:python0": ("dRr_dH = jax.grad(", "rr = jax.vmap(", "fit = jr.fit_material(",
+                                    "print(fit.params")}
 
 
 def _without(code: str, prefixes) -> str:

@@ -110,6 +110,7 @@ def _draws(data, seeds):
         yield RollingData(data.speed, data.load, y, data.sigma)
 
 
+@pytest.mark.run_bound  # its fits run long: 32 s of CPU without LLVM's passes, 20 s with them
 def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
     """Reduced copy of the coverage check: 20 points (every third speed) of fit_cylinder.csv,
     the shipped draw and two fresh ones, started near the truth (the three fits, and their

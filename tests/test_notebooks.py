@@ -15,15 +15,16 @@ import shutil
 from pathlib import Path
 
 import pytest
-from _cases import light_xla_flags
+from _cases import default_xla_flags, light_xla_flags
 
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
 
 NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
 #: Notebooks whose quick run is bound by running programs, not by compiling them (CPU seconds of
-#: the quick run with jax's default flags -> with XLA's light flags): 03's fits, 42.6 -> 63.9 s.
-#: They keep the default flags; the others compile faster (01: 39.1 -> 31.5 s, 04: 33.9 -> 25.0 s).
+#: the quick run with jax's default flags -> with LLVM's passes off): 03's fits, 42.6 -> 63.9 s.
+#: They keep LLVM's passes (tests/_xla.py); the others compile faster (01: 39.1 -> 31.5 s, 04:
+#: 33.9 -> 25.0 s).
 RUN_BOUND = ("03_material_identification",)
 #: The notebook that runs at reduced resolution in the default suite: the first a user opens.
 DEFAULT = "01_quickstart"
@@ -62,10 +63,11 @@ def test_notebook_executes(path, quick, tmp_path, monkeypatch):
     nb = nbformat.read(work, as_version=4)
     if quick:
         monkeypatch.setenv("JAXROLL_NOTEBOOK_QUICK", "1")
-        if path.stem not in RUN_BOUND:  # a few points per program: compile-bound (tests/_cases.py)
-            monkeypatch.setenv("XLA_FLAGS", light_xla_flags(os.environ.get("XLA_FLAGS")))
     else:
         monkeypatch.delenv("JAXROLL_NOTEBOOK_QUICK", raising=False)
+    # a few points per program: compile-bound; the fits run-bound (tests/_cases.py)
+    light = quick and path.stem not in RUN_BOUND
+    monkeypatch.setenv("XLA_FLAGS", (light_xla_flags if light else default_xla_flags)(os.environ.get("XLA_FLAGS")))
     # the notebooks run in a temporary folder and read their data through jr.datasets
     monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel picks its inline backend, as for a user
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
