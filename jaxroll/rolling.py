@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import any_traced, as_float, check_plausible, check_roller_values, input_checks, roller_inputs
-from .engines.layer import Layer
+from .engines.layer import Layer, check_subsonic
 from .engines.stack import Stack, models
 from .materials.material import AbstractMaterial
 from .engines.contact_size import estimate_contact_size
@@ -64,6 +64,7 @@ def _prepare(method, material, layer, radius, loads, speeds, geometry):
     traced = any_traced(material, layer, radius, loads, speeds)
     if not traced:  # concrete values: the rules of jr.Layer and the material, on the host
         material.checked(), layer.checked()
+        check_subsonic(material, layer, speeds)
         H = layer.H if isinstance(layer, Layer) else [p.H for p in layer.plies]  # a Stack: each ply's thickness
         check_plausible("rolling_resistance", radius=radius, H=H, G0=material.relaxed_modulus(), speed=speeds,
                         stacklevel=4)

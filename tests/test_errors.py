@@ -75,6 +75,21 @@ def test_front_door_programs_hold_no_host_callbacks_for_concrete_inputs():
                                                geometry="cylinder", method=full, throw=False).value
     assert "callback" not in hlo(lambda: cylinder(1e4))
     assert "callback" in hlo(cylinder, 1e4)
+    # a layer with inertia: its rule on the speed (below the shear-wave speed) is checked on the
+    # host too (the README's layer, rho = 1000 kg/m^3)
+    inertial = jr.Layer(0.03, rho=1000.0)
+    rolling = lambda: jr.rolling_resistance(SLS, inertial, radius=R, load=1e4, speed=0.01,  # noqa: E731
+                                            geometry="cylinder", method=full, throw=False).value
+    assert "callback" not in hlo(rolling)
+
+
+def test_supersonic_rolling_is_rejected_on_the_host_with_the_speeds():
+    c_s = (3e6 / 1000.0) ** 0.5  # sqrt(G0 / rho) of the relaxed material [m/s]
+    with pytest.raises(ValueError, match=r"shear-wave speed sqrt\(G0/rho\) of the layer.*got V = 60 m/s against 54.77"):
+        jr.rolling_resistance(SLS, jr.Layer(0.03, rho=1000.0), radius=R, load=20.0, speed=60.0, method="direct")
+    stack = jr.Stack([jr.Ply(SLS, H=0.01), jr.Ply(SLS, H=0.01, rho=1000.0)])
+    with pytest.raises(ValueError, match=r"of ply 2"):
+        jr.rolling_resistance_grid(SLS, stack, radius=R, loads=[20.0], speeds=[0.01, 1.01 * c_s], method="direct")
 
 
 def test_concrete_inputs_are_checked_on_the_host():

@@ -60,6 +60,7 @@ __all__ = [
     "is_quasistatic",
     "single_layer",
     "shear_wave_speed",
+    "check_subsonic",
     "transfer_incompressible",
     "transfer_compressible",
 ]
@@ -337,6 +338,30 @@ def is_quasistatic(layer: Layer) -> bool:
     return bool(np.all(np.asarray(rho) == 0.0))
 
 
+#: The rule on the rolling speed of a layer with inertia (``{where}``: the layer, a ply or the base)
+SUPERSONIC = ("rolling speed at or above the shear-wave speed sqrt(G0/rho) of {where}: the steady state is not "
+              "defined (supersonic rolling)")
+
+
+def check_subsonic(material, layer, speed) -> None:
+    """``ValueError`` if a concrete rolling speed ``|V|`` [m/s] reaches the shear-wave speed
+    ``sqrt(G0/rho)`` of the layer, or of any ply or half-space base of a
+    :class:`jaxroll.engines.stack.Stack`. The front doors check this on the host, so that their
+    programs hold no host callback (:func:`jaxroll._numerics.check_input`); the layer models
+    check traced speeds inside the program."""
+    if isinstance(layer, Layer):
+        media = [("the layer", material, layer.rho)]
+    else:  # a Stack: each ply's material and density, and the half-space base's
+        media = [(f"ply {k + 1}", p.material, p.rho) for k, p in enumerate(layer.plies)]
+        media += [("the base", layer.base.material, layer.base.rho)] if layer.base is not None else []
+    V = float(np.max(np.abs(np.asarray(speed, dtype=float))))
+    for where, mat, rho in media:
+        rho = float(np.asarray(rho))
+        c_s = math.sqrt(float(np.asarray(relaxed_modulus(mat))) / rho) if rho > 0 else math.inf
+        if V >= c_s:
+            raise ValueError(f"{SUPERSONIC.format(where=where)}; got V = {V:g} m/s against {c_s:.4g} m/s")
+
+
 def shear_wave_speed(layer: Layer, material) -> jax.Array:
     """Shear-wave speed ``sqrt(G0/rho)`` [m/s] of the relaxed material (``inf`` if
     ``rho = 0``). Rolling at or above it is rejected."""
@@ -367,13 +392,7 @@ def surface_compliance(layer: Layer, material, qx, qy, V) -> jax.Array:
         from .stack import stack_compliance
         return stack_compliance(layer, qx, qy, V)
     qx, qy, V = as_float(qx), as_float(qy), as_float(V)
-    c_s = shear_wave_speed(layer, material)
-    V = eqx.error_if(
-        V,
-        jnp.abs(V) >= c_s,
-        "rolling speed at or above the shear-wave speed sqrt(G0/rho) of the layer: the steady "
-        "state is not defined (supersonic rolling)",
-    )
+    V = check_input(V, jnp.abs(V) >= shear_wave_speed(layer, material), SUPERSONIC.format(where="the layer"))
     H = layer.H
     G = jnp.conj(complex_modulus(material, qx * V))
     q2 = qx * qx + qy * qy

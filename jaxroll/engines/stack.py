@@ -54,9 +54,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._numerics import any_traced, as_float, to_complex as _c, where_safe
+from .._numerics import any_traced, as_float, check_input, to_complex as _c, where_safe
 from ..materials.material import AbstractMaterial, _leaf, _require, complex_modulus, relaxed_modulus
-from .layer import Layer, _density, _sinhc_minus_one
+from .layer import SUPERSONIC, Layer, _density, _sinhc_minus_one
 
 __all__ = ["Ply", "HalfSpace", "Stack", "stack_compliance", "ply_propagator", "models", "cover_path", "cover_thickness",
            "with_cover_thickness", "with_cover_material", "A_CAP"]
@@ -459,9 +459,7 @@ def _shear_speed_ok(V, rho, material):
     if _static_zero(rho):
         return V
     c_s = jnp.where(rho > 0, jnp.sqrt(relaxed_modulus(material) / where_safe(rho > 0, rho, 1.0)), jnp.inf)
-    return eqx.error_if(V, jnp.abs(V) >= c_s,
-                        "rolling speed at or above the shear-wave speed sqrt(G0/rho) of a ply or the base: the "
-                        "steady state is not defined (supersonic rolling)")
+    return check_input(V, jnp.abs(V) >= c_s, SUPERSONIC.format(where="a ply or the base"))
 
 
 def stack_compliance(stack: Stack, qx, qy, V, q=None) -> jax.Array:
