@@ -322,6 +322,8 @@ class FitResult:
             (columns in ``names`` order; forward-mode AD through the model).
         method: the rolling-resistance method of the fit, with the grid it ended on (``None``
             for a DMA-only fit).
+        interval_method: how ``ci95`` was formed: ``"profile"`` (profile likelihood) or
+            ``"linearised"`` (Gauss-Newton, log-normal).
     """
 
     material: object
@@ -342,6 +344,7 @@ class FitResult:
     jacobian: np.ndarray | None = None
     sigma_mode: str = "relative"
     method: object = None
+    interval_method: str = "linearised"
 
     def _rows(self):
         """(label, value, stderr, low, high, unit) per flat parameter, in ``params`` order."""
@@ -364,7 +367,8 @@ class FitResult:
         df = pd.DataFrame(rows, columns=["parameter", "value", "stderr", "ci95_low", "ci95_high", "unit"])
         df = df.set_index("parameter")
         df.attrs.update(units={r[0]: r[5] for r in rows}, correlation=np.asarray(self.correlation).tolist(),
-                        reduced_chi2=self.reduced_chi2, converged=self.converged, sigma_mode=self.sigma_mode)
+                        reduced_chi2=self.reduced_chi2, converged=self.converged, sigma_mode=self.sigma_mode,
+                        interval_method=self.interval_method)
         return df
 
     def to_xarray(self):
@@ -383,12 +387,13 @@ class FitResult:
                          "correlation": (("parameter", "parameter_2"), np.asarray(self.correlation))},
                         coords={"parameter": names, "parameter_2": list(self.names)},
                         attrs={"reduced_chi2": self.reduced_chi2, "converged": int(self.converged),
-                               "sigma_mode": self.sigma_mode})
+                               "sigma_mode": self.sigma_mode, "interval_method": self.interval_method})
         return ds
 
     def report(self) -> str:
         """A plain-text fit report."""
-        lines = ["parameter        value          std. error     95 % interval"]
+        kind = {"profile": "profile likelihood", "linearised": "linearised, log-normal"}[self.interval_method]
+        lines = [f"parameter        value          std. error     95 % interval ({kind})"]
         for label, vi, si, li, hi_, _ in self._rows():
             lines.append(f"{label:<16} {vi:<14.6g} {si:<14.4g} [{li:.6g}, {hi_:.6g}]")
         chi2_meaning = {"absolute": "residuals weighted by the given sigma; ~1 for a correct model",
@@ -1067,5 +1072,5 @@ def fit_material(
     return FitResult(material=material, layer=lay, shift=sh, params=values, stderr=stderr, ci95=ci, covariance=cov,
                      correlation=corr, names=names, converged=bool(converged), residuals=np.asarray(r),
                      cost=float(cost), reduced_chi2=float(np.sum(r**2)) / dof, starts=starts, warnings=messages,
-                     jacobian=J, method=method,
+                     jacobian=J, method=method, interval_method="linearised" if ends is None else "profile",
                      sigma_mode=("absolute" if absolute_sigma else "scaled") if have_sigma else "relative")
