@@ -482,9 +482,12 @@ def _residuals(logp, model, data, problem):
 
 @eqx.filter_jit
 def _residuals_and_jacobian_jit(logp, model, data, problem):
-    """``(r, dr/dlogp)``: forward mode (``k`` tangents for ``k`` free parameters), or central
-    differences with step ``problem.jac_step`` in the log-parameters (``2k`` further
+    """``(r, dr/dlogp)``: per point in reverse mode for a full model's rolling data alone
+    (:func:`_per_point_jacobian`), else forward mode (``k`` tangents for ``k`` free parameters),
+    or central differences with step ``problem.jac_step`` in the log-parameters (``2k`` further
     evaluations: vmapped, or for the full models' warm-started tables one after the other)."""
+    if problem.jac_step is None and _per_point(model, data, problem):
+        return _per_point_jacobian(logp, model, data, problem)
     if problem.jac_step is None:
         def f(lp):
             r = _residuals(lp, model, data, problem)
@@ -504,6 +507,35 @@ def _residuals_and_jacobian_jit(logp, model, data, problem):
     return rs[0], ((rs[1 : k + 1] - rs[k + 1 :]) / (2.0 * step)).T
 
 
+def _per_point(model, data, problem) -> bool:
+    """Whether :func:`_per_point_jacobian` applies: a full model, rolling data alone, free
+    parameters of the material only (a fixed :class:`jaxroll.Layer`, no shift)."""
+    material_only = all(n not in ("H", "C1", "C2") for n in problem.params.free)
+    return _use_table(problem.method) and "w" not in data and material_only and not isinstance(model[1], Stack)
+
+
+def _per_point_jacobian(logp, model, data, problem):
+    """``(r, dr/dlogp)`` of a full model's rolling residuals in one reverse-mode pass: each point
+    gets its own copy of the log-parameters and is solved by :meth:`jaxroll.methods.Full.evaluate_points`
+    (warm-started from the previous point, sorted by speed then load; the start is data only), so
+    residual ``i`` depends on copy ``i`` alone and the pullback of a vector of ones is the
+    Jacobian, row by row. Each contact solve's derivative is then one adjoint (transposed) solve,
+    where forward mode solves once per free parameter; each point builds its own kernel (the
+    kernel's share of the work is small against the solves)."""
+    params, (_, layer, _) = problem.params, model
+    n = data["V"].shape[0]
+
+    def residuals(logp_points):
+        material = jax.vmap(lambda lp: params.build(lp, model)[0])(logp_points)
+        out = problem.method.evaluate_points(material, layer, jnp.asarray(problem.radius, float), data["P"],
+                                             data["V"], problem.geometry, axes=(0, None, None, 0, 0),
+                                             order=data["order"])
+        return (out.value - data["rr"]) / data["rr_sig"]
+
+    r, pullback = jax.vjp(residuals, jnp.broadcast_to(logp, (n, logp.shape[0])))
+    return r, pullback(jnp.ones_like(r))[0]
+
+
 def _data_arrays(rolling, dma, method):
     """The data as jit arguments (not closure constants, which XLA would constant-fold)."""
     data = {}
@@ -513,7 +545,8 @@ def _data_arrays(rolling, dma, method):
         if _use_table(method):
             Vu, iv = np.unique(rolling.speed, return_inverse=True)
             Pu, ip = np.unique(rolling.load, return_inverse=True)  # sorted: warm-started load sweep
-            data.update(Vu=jnp.asarray(Vu), Pu=jnp.asarray(Pu), iv=jnp.asarray(iv.ravel()), ip=jnp.asarray(ip.ravel()))
+            data.update(Vu=jnp.asarray(Vu), Pu=jnp.asarray(Pu), iv=jnp.asarray(iv.ravel()), ip=jnp.asarray(ip.ravel()),
+                        order=jnp.asarray(np.lexsort((rolling.load, rolling.speed))))  # by speed, then load
     if dma is not None:
         data.update(w=jnp.asarray(dma.omega), gs=jnp.asarray(dma.storage), gl=jnp.asarray(dma.loss))
         data.update(ss=jnp.asarray(dma.storage if dma.storage_sigma is None else dma.storage_sigma),
