@@ -53,7 +53,8 @@ def _trial(system: ContactSystem, x, a, gt, step, d_gap, alpha, eps):
     pt = x[:-1].reshape(system.shape) + alpha * step[:-1].reshape(system.shape)
     a_t, gt_t = a + alpha * step[:-1].reshape(system.shape), gt + alpha * d_gap
     F = -eps * jnp.logaddexp(-a_t / eps, -gt_t / eps)
-    return jnp.concatenate([F.ravel(), (system.last_row(pt, x[-1] + alpha * step[-1]) - system.target)[None]]), a_t, gt_t
+    last = system.last_row(pt, x[-1] + alpha * step[-1]) - system.target
+    return jnp.concatenate([F.ravel(), last[None]]), a_t, gt_t
 
 
 def _jacobian(system: ContactSystem, a, gt, eps, precond: CirculantPreconditioner | None):

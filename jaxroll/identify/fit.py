@@ -1,7 +1,7 @@
 """Material identification from measured rolling resistance and/or DMA data.
 
 Weighted least squares in log-parameters (positivity built in), solved by
-:func:`scipy.optimize.least_squares` on a compiled JAX residual and its forward-mode Jacobian,
+:func:`scipy.optimize.least_squares` on a compiled JAX residual and its AD Jacobian,
 with multi-start, optional bounds and Gauss-Newton uncertainty (covariance, standard errors,
 95 % intervals, correlations).
 
@@ -319,7 +319,8 @@ class FitResult:
         starts: list of ``(cost, converged)`` for every start, in the order tried.
         warnings: identifiability messages (also issued as :class:`IdentifiabilityWarning`).
         jacobian: Jacobian of ``residuals`` with respect to the log-parameters at the optimum
-            (columns in ``names`` order; forward-mode AD through the model).
+            (columns in ``names`` order; AD through the model: reverse mode per point for a
+            full model's rolling data, forward mode otherwise).
         method: the rolling-resistance method of the fit, with the grid it ended on (``None``
             for a DMA-only fit).
         interval_method: how ``ci95`` was formed: ``"profile"`` (profile likelihood) or
@@ -668,9 +669,9 @@ def _grid_moved(old, new) -> bool:
 
 def _host_functions(problem, model, data, progress):
     """Residual and Jacobian in the unconstrained coordinates ``u`` for the least-squares
-    driver. Each point is evaluated once, residual and Jacobian together (``k`` forward-mode
-    tangents cost little more than the residual, and scipy asks for the Jacobian at every
-    accepted point right after its residual). The Jacobian call (made at accepted points)
+    driver. Each point is evaluated once, residual and Jacobian together (the derivatives cost
+    less than the residual, and scipy asks for the Jacobian at every accepted point right after
+    its residual). The Jacobian call (made at accepted points)
     reports progress."""
     params, names = problem.params, problem.params.names_flat()
     t_start, last, count = time.perf_counter(), {}, [0]
@@ -1002,11 +1003,11 @@ def fit_material(
             :data:`FULL_MODEL_RTOL` for rolling data with the default method, the full model,
             whose contact solver tolerance and grid ripple make smaller cost changes noise; the
             intervals are set by a chi^2 change of order 1, 1e6 times larger).
-        jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
-            differences in the log-parameters with step ``h``, e.g. for models that are only
-            piecewise smooth at a fixed resolution (a full model without ``edge_smoothing``:
-            the contact area changes in whole cells; see fitting/README.md for what this does
-            and does not fix).
+        jac_step: ``None`` (default): Jacobian by AD (:func:`_residuals_and_jacobian_jit`). A
+            float ``h``: central differences in the log-parameters with step ``h``, e.g. for
+            models that are only piecewise smooth at a fixed resolution (a full model without
+            ``edge_smoothing``: the contact area changes in whole cells; see fitting/README.md
+            for what this does and does not fix).
         intervals: ``"profile"``: the 95 % intervals from the profile likelihood (per parameter
             and side, a few fits of the other parameters with it held fixed: about 100 further
             evaluations for three parameters; a profile that finds a lower cost restarts the fit
