@@ -871,9 +871,10 @@ def _valley_fit(rolling, dma, method, geometry) -> bool:
     """Whether ``intervals="auto"`` profiles: rolling data alone (no DMA data to pin the moduli)
     of a cylinder fitted with the default fitting model (``method`` None or equal to
     ``default_method(geometry, fit=True)``), whose G0-tau-f valley was measured to be curved.
-    Not the sphere: its profiles would cost about 5x its fit (218 s of CPU on 2 cores for the
-    shipped 60 points), and its coverage was not measured either way (``intervals="profile"``
-    asks for them)."""
+    Not the sphere: its profiles would cost about 5x its fit (173 s of CPU on 2 shared cores for
+    the shipped 60 points, 63-144 s per noise draw compiled; benchmarks/LOG.md), and 9 seeded
+    draws are too few to say its linearised intervals are too narrow (7 of 9 held the truth;
+    ``intervals="profile"`` asks for profiles)."""
     from ..geometry import as_geometry
     from ..methods import default_method
 
@@ -1014,7 +1015,7 @@ def fit_material(
             there, at most :data:`MAX_VALLEY_RESTARTS` times); ``"linear"``: from the
             Gauss-Newton covariance (no further evaluations); ``"auto"`` (default): profiles
             for a cylinder's rolling data alone fitted with the default method (also when named;
-            not yet the sphere, whose profiles would cost ~5x its fit), whose
+            not the sphere, whose profiles would cost ~5x its fit), whose
             G0-tau-f valley is curved (there the linearised intervals held the truth in 74-78 %
             of seeded noise draws and the fit could stop in a second minimum along the valley;
             fitting/README.md), linearised otherwise (DMA data pin the moduli; the other
