@@ -871,7 +871,7 @@ def _valley_fit(rolling, dma, method, geometry) -> bool:
     """Whether ``intervals="auto"`` profiles: rolling data alone (no DMA data to pin the moduli)
     of a cylinder fitted with the default fitting model (``method`` None or equal to
     ``default_method(geometry, fit=True)``), whose G0-tau-f valley was measured to be curved.
-    Not the sphere: its profiles would cost about 5x its fit (173 s of CPU on 2 shared cores for
+    Not the sphere: its profiles would cost about 5x its fit (157-173 s of CPU on 2 shared cores for
     the shipped 60 points, 63-144 s per noise draw compiled; benchmarks/LOG.md), and 9 seeded
     draws are too few to say its linearised intervals are too narrow (7 of 9 held the truth;
     ``intervals="profile"`` asks for profiles)."""
