@@ -198,7 +198,7 @@ def test_interval_coverage(geometry, n):
     (benchmarks/fit_coverage.py --draws records the same draws). The linearised intervals held
     the truth in 20-21 of the first 27 cylinder draws, below this bound: along the curved
     G0-tau-f valley they were too narrow, and fits stopped in a second minimum (fitting/README.md).
-    The sphere (about 20 times the cylinder's time per evaluation) was run on 9 draws only
+    The sphere (about 20 times the cylinder's time per evaluation) was run on 17 draws only
     (benchmarks/LOG.md)."""
     hits, lowest = _coverage(geometry, n)
     print(f"{geometry}: {hits} of {n} draws' intervals hold the truth")

@@ -872,8 +872,8 @@ def _valley_fit(rolling, dma, method, geometry) -> bool:
     of a cylinder fitted with the default fitting model (``method`` None or equal to
     ``default_method(geometry, fit=True)``), whose G0-tau-f valley was measured to be curved.
     Not the sphere: its profiles would cost about 5x its fit (157-173 s of CPU on 2 shared cores for
-    the shipped 60 points, 63-144 s per noise draw compiled; benchmarks/LOG.md), and 9 seeded
-    draws are too few to say its linearised intervals are too narrow (7 of 9 held the truth;
+    the shipped 60 points, 44-144 s per noise draw compiled; benchmarks/LOG.md), and 17 seeded
+    draws are too few to say its linearised intervals are too narrow (14 of 17 held the truth;
     ``intervals="profile"`` asks for profiles)."""
     from ..geometry import as_geometry
     from ..methods import default_method
