@@ -34,14 +34,17 @@ def main():
     jax.monitoring.register_event_duration_secs_listener(
         lambda name, secs, **kw: compiles.append(secs) if name == "/jax/core/compile/backend_compile_duration"
         else None)
-    evaluations, seconds = [0], [0.0]
+    evaluations, seconds, per_window = [0], [0.0], {}
     inner = fit_module._residuals_and_jacobian_jit
 
-    def counted(*a, **k):
+    def counted(logp, model, data, problem):
         t = time.process_time()
-        out = jax.block_until_ready(inner(*a, **k))
+        out = jax.block_until_ready(inner(logp, model, data, problem))
         evaluations[0] += 1
         seconds[0] += time.process_time() - t
+        row = per_window.setdefault(problem.method.grid.window, [0, []])
+        row[0] += 1
+        row[1].append(time.process_time() - t)
         return out
 
     fit_module._residuals_and_jacobian_jit = counted
@@ -59,6 +62,9 @@ def main():
           f"({seconds[0] / max(evaluations[0], 1):.2f} s each incl. compiles); accepted points (Jacobian calls): "
           f"{len(iterations)}; runs (grids): {len(res.starts)}")
     print(f"  XLA compilations: {len(compiles)}, {sum(compiles):.1f} s; largest {sorted(compiles)[-3:]}")
+    for window, (count, cpu) in per_window.items():
+        print(f"  window {window} cells: {count} evaluations, CPU {sum(cpu):.1f} s (first {cpu[0]:.1f} s incl. "
+              f"compile, then median {np.median(cpu[1:]) if len(cpu) > 1 else float('nan'):.2f} s)")
     print(f"  grid: {res.method.grid}")
     for n in res.params:
         print(f"  {n} {float(res.params[n]):.6g} [{float(res.ci95[n][0]):.6g}, {float(res.ci95[n][1]):.6g}]")

@@ -215,6 +215,10 @@ def test_profile_intervals_match_the_linearised_ones_where_the_model_is_nearly_l
     start = jr.StandardLinearSolid(1e6, 1.0, 0.3)
     lin = fit_material(initial=start, dma=_dma(0))
     prof = fit_material(initial=start, dma=_dma(0), intervals="profile")
+    # the result says which intervals it holds (DMA data: linearised unless asked)
+    assert (lin.interval_method, prof.interval_method) == ("linearised", "profile")
+    assert "95 % interval (linearised, log-normal)" in lin.report()
+    assert "95 % interval (profile likelihood)" in prof.report()
     for n in ("G0", "tau", "f"):
         assert float(prof.params[n]) == pytest.approx(float(lin.params[n]), rel=1e-9)
         half = 0.5 * np.log(float(lin.ci95[n][1]) / float(lin.ci95[n][0]))

@@ -1,7 +1,7 @@
 """Material identification from measured rolling resistance and/or DMA data.
 
 Weighted least squares in log-parameters (positivity built in), solved by
-:func:`scipy.optimize.least_squares` on a compiled JAX residual and its forward-mode Jacobian,
+:func:`scipy.optimize.least_squares` on a compiled JAX residual and its AD Jacobian,
 with multi-start, optional bounds and Gauss-Newton uncertainty (covariance, standard errors,
 95 % intervals, correlations).
 
@@ -319,9 +319,12 @@ class FitResult:
         starts: list of ``(cost, converged)`` for every start, in the order tried.
         warnings: identifiability messages (also issued as :class:`IdentifiabilityWarning`).
         jacobian: Jacobian of ``residuals`` with respect to the log-parameters at the optimum
-            (columns in ``names`` order; forward-mode AD through the model).
+            (columns in ``names`` order; AD through the model: reverse mode per point for a
+            full model's rolling data, forward mode otherwise).
         method: the rolling-resistance method of the fit, with the grid it ended on (``None``
             for a DMA-only fit).
+        interval_method: how ``ci95`` was formed: ``"profile"`` (profile likelihood) or
+            ``"linearised"`` (Gauss-Newton, log-normal).
     """
 
     material: object
@@ -342,6 +345,7 @@ class FitResult:
     jacobian: np.ndarray | None = None
     sigma_mode: str = "relative"
     method: object = None
+    interval_method: str = "linearised"
 
     def _rows(self):
         """(label, value, stderr, low, high, unit) per flat parameter, in ``params`` order."""
@@ -364,7 +368,8 @@ class FitResult:
         df = pd.DataFrame(rows, columns=["parameter", "value", "stderr", "ci95_low", "ci95_high", "unit"])
         df = df.set_index("parameter")
         df.attrs.update(units={r[0]: r[5] for r in rows}, correlation=np.asarray(self.correlation).tolist(),
-                        reduced_chi2=self.reduced_chi2, converged=self.converged, sigma_mode=self.sigma_mode)
+                        reduced_chi2=self.reduced_chi2, converged=self.converged, sigma_mode=self.sigma_mode,
+                        interval_method=self.interval_method)
         return df
 
     def to_xarray(self):
@@ -383,12 +388,13 @@ class FitResult:
                          "correlation": (("parameter", "parameter_2"), np.asarray(self.correlation))},
                         coords={"parameter": names, "parameter_2": list(self.names)},
                         attrs={"reduced_chi2": self.reduced_chi2, "converged": int(self.converged),
-                               "sigma_mode": self.sigma_mode})
+                               "sigma_mode": self.sigma_mode, "interval_method": self.interval_method})
         return ds
 
     def report(self) -> str:
         """A plain-text fit report."""
-        lines = ["parameter        value          std. error     95 % interval"]
+        kind = {"profile": "profile likelihood", "linearised": "linearised, log-normal"}[self.interval_method]
+        lines = [f"parameter        value          std. error     95 % interval ({kind})"]
         for label, vi, si, li, hi_, _ in self._rows():
             lines.append(f"{label:<16} {vi:<14.6g} {si:<14.4g} [{li:.6g}, {hi_:.6g}]")
         chi2_meaning = {"absolute": "residuals weighted by the given sigma; ~1 for a correct model",
@@ -477,9 +483,12 @@ def _residuals(logp, model, data, problem):
 
 @eqx.filter_jit
 def _residuals_and_jacobian_jit(logp, model, data, problem):
-    """``(r, dr/dlogp)``: forward mode (``k`` tangents for ``k`` free parameters), or central
-    differences with step ``problem.jac_step`` in the log-parameters (``2k`` further
+    """``(r, dr/dlogp)``: per point in reverse mode for a full model's rolling data alone
+    (:func:`_per_point_jacobian`), else forward mode (``k`` tangents for ``k`` free parameters),
+    or central differences with step ``problem.jac_step`` in the log-parameters (``2k`` further
     evaluations: vmapped, or for the full models' warm-started tables one after the other)."""
+    if problem.jac_step is None and _per_point(model, data, problem):
+        return _per_point_jacobian(logp, model, data, problem)
     if problem.jac_step is None:
         def f(lp):
             r = _residuals(lp, model, data, problem)
@@ -499,6 +508,36 @@ def _residuals_and_jacobian_jit(logp, model, data, problem):
     return rs[0], ((rs[1 : k + 1] - rs[k + 1 :]) / (2.0 * step)).T
 
 
+def _per_point(model, data, problem) -> bool:
+    """Whether :func:`_per_point_jacobian` applies: a full model, rolling data alone, free
+    parameters of the material only (a fixed :class:`jaxroll.Layer`, no shift)."""
+    material_only = all(n not in ("H", "C1", "C2") for n in problem.params.free)
+    return _use_table(problem.method) and "w" not in data and material_only and not isinstance(model[1], Stack)
+
+
+def _per_point_jacobian(logp, model, data, problem):
+    """``(r, dr/dlogp)`` of a full model's rolling residuals in one reverse-mode pass: each point
+    gets its own copy of the log-parameters and is solved by :meth:`jaxroll.methods.Full.evaluate_points`
+    (warm-started from the previous point, sorted by speed then load; the start is data only), so
+    residual ``i`` depends on copy ``i`` alone and the pullback of a vector of ones is the
+    Jacobian, row by row. Each contact solve's derivative is then one adjoint (transposed) solve,
+    where forward mode solves once per free parameter; each point builds its own kernel. On the
+    60-point sphere benchmark one evaluation took 5.8 s of CPU against 13.6-14.7 s in forward
+    mode (benchmarks/LOG.md, "The sphere fit's evaluation")."""
+    params, (_, layer, _) = problem.params, model
+    n = data["V"].shape[0]
+
+    def residuals(logp_points):
+        material = jax.vmap(lambda lp: params.build(lp, model)[0])(logp_points)
+        out = problem.method.evaluate_points(material, layer, jnp.asarray(problem.radius, float), data["P"],
+                                             data["V"], problem.geometry, axes=(0, None, None, 0, 0),
+                                             order=data["order"])
+        return (out.value - data["rr"]) / data["rr_sig"]
+
+    r, pullback = jax.vjp(residuals, jnp.broadcast_to(logp, (n, logp.shape[0])))
+    return r, pullback(jnp.ones_like(r))[0]
+
+
 def _data_arrays(rolling, dma, method):
     """The data as jit arguments (not closure constants, which XLA would constant-fold)."""
     data = {}
@@ -508,7 +547,8 @@ def _data_arrays(rolling, dma, method):
         if _use_table(method):
             Vu, iv = np.unique(rolling.speed, return_inverse=True)
             Pu, ip = np.unique(rolling.load, return_inverse=True)  # sorted: warm-started load sweep
-            data.update(Vu=jnp.asarray(Vu), Pu=jnp.asarray(Pu), iv=jnp.asarray(iv.ravel()), ip=jnp.asarray(ip.ravel()))
+            data.update(Vu=jnp.asarray(Vu), Pu=jnp.asarray(Pu), iv=jnp.asarray(iv.ravel()), ip=jnp.asarray(ip.ravel()),
+                        order=jnp.asarray(np.lexsort((rolling.load, rolling.speed))))  # by speed, then load
     if dma is not None:
         data.update(w=jnp.asarray(dma.omega), gs=jnp.asarray(dma.storage), gl=jnp.asarray(dma.loss))
         data.update(ss=jnp.asarray(dma.storage if dma.storage_sigma is None else dma.storage_sigma),
@@ -630,10 +670,9 @@ def _grid_moved(old, new) -> bool:
 
 def _host_functions(problem, model, data, progress):
     """Residual and Jacobian in the unconstrained coordinates ``u`` for the least-squares
-    driver. Each point is evaluated once, residual and Jacobian together (``k`` forward-mode
-    tangents cost little more than the residual, and scipy asks for the Jacobian at every
-    accepted point right after its residual). The Jacobian call (made at accepted points)
-    reports progress."""
+    driver. Each point is evaluated once, residual and Jacobian together (scipy asks for the
+    Jacobian at every accepted point right after its residual). The Jacobian call (made at
+    accepted points) reports progress."""
     params, names = problem.params, problem.params.names_flat()
     t_start, last, count = time.perf_counter(), {}, [0]
 
@@ -832,9 +871,10 @@ def _valley_fit(rolling, dma, method, geometry) -> bool:
     """Whether ``intervals="auto"`` profiles: rolling data alone (no DMA data to pin the moduli)
     of a cylinder fitted with the default fitting model (``method`` None or equal to
     ``default_method(geometry, fit=True)``), whose G0-tau-f valley was measured to be curved.
-    Not the sphere: its profiles would cost about 5x its fit (218 s of CPU on 2 cores for the
-    shipped 60 points), and its coverage was not measured either way (``intervals="profile"``
-    asks for them)."""
+    Not the sphere: its profiles would cost about 5x its fit (157-173 s of CPU on 2 shared cores for
+    the shipped 60 points, 44-144 s per noise draw compiled; benchmarks/LOG.md), and 17 seeded
+    draws are too few to say its linearised intervals are too narrow (14 of 17 held the truth;
+    ``intervals="profile"`` asks for profiles)."""
     from ..geometry import as_geometry
     from ..methods import default_method
 
@@ -964,18 +1004,18 @@ def fit_material(
             :data:`FULL_MODEL_RTOL` for rolling data with the default method, the full model,
             whose contact solver tolerance and grid ripple make smaller cost changes noise; the
             intervals are set by a chi^2 change of order 1, 1e6 times larger).
-        jac_step: ``None`` (default): Jacobian by forward-mode AD. A float ``h``: central
-            differences in the log-parameters with step ``h``, e.g. for models that are only
-            piecewise smooth at a fixed resolution (a full model without ``edge_smoothing``:
-            the contact area changes in whole cells; see fitting/README.md for what this does
-            and does not fix).
+        jac_step: ``None`` (default): Jacobian by AD (:func:`_residuals_and_jacobian_jit`). A
+            float ``h``: central differences in the log-parameters with step ``h``, e.g. for
+            models that are only piecewise smooth at a fixed resolution (a full model without
+            ``edge_smoothing``: the contact area changes in whole cells; see fitting/README.md
+            for what this does and does not fix).
         intervals: ``"profile"``: the 95 % intervals from the profile likelihood (per parameter
             and side, a few fits of the other parameters with it held fixed: about 100 further
             evaluations for three parameters; a profile that finds a lower cost restarts the fit
             there, at most :data:`MAX_VALLEY_RESTARTS` times); ``"linear"``: from the
             Gauss-Newton covariance (no further evaluations); ``"auto"`` (default): profiles
             for a cylinder's rolling data alone fitted with the default method (also when named;
-            not yet the sphere, whose profiles would cost ~5x its fit), whose
+            not the sphere, whose profiles would cost ~5x its fit), whose
             G0-tau-f valley is curved (there the linearised intervals held the truth in 74-78 %
             of seeded noise draws and the fit could stop in a second minimum along the valley;
             fitting/README.md), linearised otherwise (DMA data pin the moduli; the other
@@ -1067,5 +1107,5 @@ def fit_material(
     return FitResult(material=material, layer=lay, shift=sh, params=values, stderr=stderr, ci95=ci, covariance=cov,
                      correlation=corr, names=names, converged=bool(converged), residuals=np.asarray(r),
                      cost=float(cost), reduced_chi2=float(np.sum(r**2)) / dof, starts=starts, warnings=messages,
-                     jacobian=J, method=method,
+                     jacobian=J, method=method, interval_method="linearised" if ends is None else "profile",
                      sigma_mode=("absolute" if absolute_sigma else "scaled") if have_sigma else "relative")

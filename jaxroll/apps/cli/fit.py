@@ -70,7 +70,7 @@ def run(args) -> int:
         for n in fit.params
     }
     payload = {"parameters": params, "names": fit.names, "correlation": np.asarray(fit.correlation).tolist(),
-               "converged": fit.converged, "cost": fit.cost, "reduced_chi2": fit.reduced_chi2,
+               "intervals": fit.interval_method, "converged": fit.converged, "cost": fit.cost, "reduced_chi2": fit.reduced_chi2,
                "warnings": fit.warnings, "method": repr(method),
                "units": {n: jfit.PARAMETER_UNITS.get(n, "") for n in fit.params}}
     (out / "fit_params.json").write_text(json.dumps(payload, indent=2) + "\n")
