@@ -137,6 +137,16 @@ def batched_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def _commits_differ(gpu: list, cpu: list) -> str:
+    """A warning when the GPU and CPU rows measured different commits."""
+    g = sorted({sec["measured"]["commit"] for sec in gpu})
+    c = sorted({sec["measured"]["commit"] for sec in cpu})
+    if g == c:
+        return ""
+    return (f" The GPU rows measured commit {', '.join(g)} and the CPU rows {', '.join(c)}: where the code of an "
+            "entry changed in between, the ratio compares different code (benchmarks/LOG.md).")
+
+
 def batched_gpu_table(numbers: dict) -> str:
     """The same entry points on a GPU, with the CPU's figure where the CPU table has the entry."""
     parts = _batched_parts(numbers, "batched_gpu")
@@ -144,7 +154,8 @@ def batched_gpu_table(numbers: dict) -> str:
     jax_version = parts[0]["measured"]["jax"] if parts else ""
     lines = ["; ".join(_batched_header(sec) for sec in parts) + f". jax {jax_version} is the one installed on that "
              "machine (the project's pin below 0.10 guards against a deadlock on the CPU). Medians; compile ahead of "
-             "time, apart; \"GPU / CPU\" divides the GPU's time per point by the CPU's in the table above.", "",
+             "time, apart; \"GPU / CPU\" divides the GPU's time per point by the CPU's in the table above."
+             + _commits_differ(parts, _batched_parts(numbers, "batched")), "",
              "| entry | per point | compile | ratio to the table | GPU / CPU | note |", "|---|---|---|---|---|---|"]
     for sec in parts:
         for r in sec["rows"]:
