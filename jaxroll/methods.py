@@ -238,7 +238,9 @@ class Full(_GridMethod):
         edge_smoothing: ``None`` (exact discrete contact) or ``kappa > 0``: the smoothed contact
             edge (log-sum-exp complementarity with the gap scale ``kappa a^{3/2} r^{1/2}/R``),
             which makes ``R_r`` smooth in every parameter for least-squares fits, at a bias that
-            vanishes with the cell size (0.25 on the paper's grid, 0.5 on coarser ones).
+            vanishes with the cell size; the fits' default (``default_method(geometry,
+            fit=True)``) uses it with ``edge_extrapolation``, which removes most of that bias
+            (docs/validation.md, edge-smoothing table).
         edge_extrapolation: with ``edge_smoothing``: Richardson extrapolation of the smoothed
             edge to ``kappa -> 0`` (solutions at ``kappa`` and ``2 kappa`` combined with the
             measured bias order :data:`EDGE_BIAS_ORDER`): still smooth, the bias mostly removed,

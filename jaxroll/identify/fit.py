@@ -22,8 +22,9 @@ parameters has risen by ``1.96^2 s^2 / 2`` (the likelihood-ratio test, chi^2 wit
 freedom). The profile follows a curved parameter valley where the linearisation does not: with
 the default full model on rolling data alone (G0, tau and f correlated above 0.99 along a curved
 valley) the linearised intervals held the truth in 74-78 % of seeded noise draws, the profiles
-in the share measured in fitting/README.md. A profile that finds a lower cost than the fit's (a
-second minimum along the valley) restarts the fit there.
+in the share that ``benchmarks/fit_coverage.py`` measures (fitting/README.md, "Coverage and
+the intervals"). A profile that finds a lower cost than the fit's (a second minimum along the
+valley) restarts the fit there.
 """
 
 from __future__ import annotations
@@ -979,8 +980,10 @@ def fit_material(
         radius: roller radius [m] (required with rolling data).
         geometry, method: passed to :func:`jaxroll.rolling_resistance` (a method object or a
             shortcut string). Default: ``jaxroll.methods.default_method(geometry, fit=True)``,
-            the full model with the smoothed contact edge (the exact discrete R_r wiggles with
-            the contact set and the iteration stalls on it; fitting/README.md). A method with an
+            the full model with the smoothed contact edge extrapolated to ``kappa -> 0``
+            (``edge_extrapolation``: smooth in the parameters, the smoothing's bias mostly
+            removed; the exact discrete R_r wiggles with the contact set and the iteration stalls
+            on it: the study is in benchmarks/LOG.md). A method with an
             :class:`~jaxroll.grids.AutoGrid` is resolved here over the data envelope (every
             measured speed and load) at ``initial``; while the grid resolved at the fitted
             parameters differs by more than :data:`REGRID_FACTOR` in cell size or window width,
@@ -1007,8 +1010,8 @@ def fit_material(
         jac_step: ``None`` (default): Jacobian by AD (:func:`_residuals_and_jacobian_jit`). A
             float ``h``: central differences in the log-parameters with step ``h``, e.g. for
             models that are only piecewise smooth at a fixed resolution (a full model without
-            ``edge_smoothing``: the contact area changes in whole cells; see fitting/README.md
-            for what this does and does not fix).
+            ``edge_smoothing``: the contact area changes in whole cells; benchmarks/LOG.md has
+            the study of what this does and does not fix).
         intervals: ``"profile"``: the 95 % intervals from the profile likelihood (per parameter
             and side, a few fits of the other parameters with it held fixed: about 100 further
             evaluations for three parameters; a profile that finds a lower cost restarts the fit
@@ -1018,7 +1021,7 @@ def fit_material(
             not the sphere, whose profiles would cost ~5x its fit), whose
             G0-tau-f valley is curved (there the linearised intervals held the truth in 74-78 %
             of seeded noise draws and the fit could stop in a second minimum along the valley;
-            fitting/README.md), linearised otherwise (DMA data pin the moduli; the other
+            benchmarks/LOG.md), linearised otherwise (DMA data pin the moduli; the other
             methods' intervals were measured honest). ``stderr`` and ``covariance`` are
             linearised either way.
         progress: print one line per residual+Jacobian evaluation (evaluation count, chi^2,

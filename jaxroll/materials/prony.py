@@ -141,10 +141,11 @@ INSTRUMENT_PHASE_SIGMA = math.radians(0.1)
 
 #: Default ``phase_sigma`` of :func:`fit_prony`: 0, storage and loss weighed alike. The
 #: instrument error model (:data:`INSTRUMENT_PHASE_SIGMA`) lowers the shipped file's glassy
-#: plateau bias from +19.5 % to +8.4 % but puts its loss 28 % low where tan delta is 0.02-0.1,
-#: 4-15 times the loss error that model itself assumes there, and the rolling resistance at
-#: 0-25 degC 10-22 % low (docs/dma.md): the data are not Kramers-Kronig-consistent within the
-#: assumed errors, so the weights would choose the answer rather than describe the instrument.
+#: plateau bias but puts its loss low where tan delta is 0.02-0.1, by several times the loss
+#: error that model itself assumes there, and lowers the rolling resistance near room
+#: temperature (docs/dma.md, its generated tables): the data are not Kramers-Kronig-consistent
+#: within the assumed errors, so the weights would choose the answer rather than describe the
+#: instrument.
 PHASE_SIGMA = 0.0
 
 
