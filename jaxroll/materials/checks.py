@@ -84,18 +84,9 @@ def _level_outliers(T, level):
     return found
 
 
-def check_sweeps(sweeps: DMASweeps) -> list[str]:
-    """Plausibility of multi-temperature DMA sweeps; one message per finding (empty: none).
-
-    Found: a set whose modulus level is 10^3 or 10^6 off from its neighbours (Pa vs kPa/MPa);
-    moduli above :data:`MAX_MODULUS`; frequencies that look like rad/s labelled Hz; temperatures
-    that look like degC labelled K (or K labelled degC); loss above storage on a glassy plateau
-    (swapped columns); storage falling with frequency; repeated rows and repeated frequencies
-    within a set; sets with fewer than 3 distinct frequencies; sets closer than
-    :data:`MIN_SET_SPACING`.
-    """
+def _temperature_findings(sweeps: DMASweeps) -> list[str]:
+    """Sets measured twice, and temperature units (degC labelled K or K labelled degC)."""
     out = []
-    n = sweeps.n_sets
     Ts = sweeps.set_temperature
     # sets closer than 0.5 K
     for i in np.flatnonzero(np.diff(Ts) < MIN_SET_SPACING):
@@ -109,6 +100,15 @@ def check_sweeps(sweeps: DMASweeps) -> list[str]:
     elif Ts[0] > 473.15:
         out.append(f"set temperatures {Ts[0] - 273.15:.4g}..{Ts[-1] - 273.15:.4g} degC: are they kelvin labelled degC? "
                    "Check the temperature unit")
+    return out
+
+
+def _unit_findings(sweeps: DMASweeps) -> list[str]:
+    """Modulus and frequency units (a set's level decades off, moduli no polymer reaches, rad/s
+    labelled Hz) and swapped storage/loss columns."""
+    out = []
+    n = sweeps.n_sets
+    Ts = sweeps.set_temperature
     # unit prefixes: modulus levels and absolute size
     big = (sweeps.storage > MAX_MODULUS) | (sweeps.loss > MAX_MODULUS)
     if big.any():
@@ -139,6 +139,13 @@ def check_sweeps(sweeps: DMASweeps) -> list[str]:
         out.append(f"{set_name(sweeps, 0)}: loss above storage on the glassy plateau at {int(np.sum(l0 > s0))} of "
                    f"{len(l0)} points (median tan delta {np.median(l0 / s0):.3g}): are the storage and loss columns "
                    "swapped?")
+    return out
+
+
+def _falling_findings(sweeps: DMASweeps) -> list[str]:
+    """Sets with fewer than 3 frequencies, and storage falling with frequency (Kramers-Kronig)."""
+    out = []
+    n = sweeps.n_sets
     # storage falling with frequency; repeated points
     falling, glassy_falls = [], []
     for i in range(n):
@@ -166,6 +173,13 @@ def check_sweeps(sweeps: DMASweeps) -> list[str]:
         which = ", ".join(set_name(sweeps, i) for i in falling[:3]) + (", ..." if len(falling) > 3 else "")
         out.append(f"storage falls with frequency in {len(falling)} of {n} sets ({which}) (it can only rise: Kramers-Kronig): are the rows' "
                    "frequencies reversed, or the storage column another quantity?")
+    return out
+
+
+def _repeat_findings(sweeps: DMASweeps) -> list[str]:
+    """Repeated rows, and repeated frequencies within a set."""
+    out = []
+    n = sweeps.n_sets
     key = np.stack([sweeps.set, sweeps.omega, sweeps.storage, sweeps.loss], axis=1)
     _, first, count = np.unique(key, axis=0, return_index=True, return_counts=True)
     dup = np.ones(len(key), bool)
@@ -182,3 +196,17 @@ def check_sweeps(sweeps: DMASweeps) -> list[str]:
                        f"(e.g. {x[1:][same][0] / (2 * math.pi):.4g} Hz): repeated measurements weigh more in the "
                        "shift; average or remove them")
     return out
+
+
+def check_sweeps(sweeps: DMASweeps) -> list[str]:
+    """Plausibility of multi-temperature DMA sweeps; one message per finding (empty: none).
+
+    Found: a set whose modulus level is 10^3 or 10^6 off from its neighbours (Pa vs kPa/MPa);
+    moduli above :data:`MAX_MODULUS`; frequencies that look like rad/s labelled Hz; temperatures
+    that look like degC labelled K (or K labelled degC); loss above storage on a glassy plateau
+    (swapped columns); storage falling with frequency; repeated rows and repeated frequencies
+    within a set; sets with fewer than 3 distinct frequencies; sets closer than
+    :data:`MIN_SET_SPACING`.
+    """
+    return (_temperature_findings(sweeps) + _unit_findings(sweeps) + _falling_findings(sweeps)
+            + _repeat_findings(sweeps))
