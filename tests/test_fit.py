@@ -441,3 +441,33 @@ def test_progress_reports_every_evaluation(capsys):
     fit_material(initial=jr.StandardLinearSolid(1e6, 1.0, 0.3), dma=_dma(0), progress=True)
     out = capsys.readouterr().out
     assert "fit: evaluation   1  chi2" in out and "G0=" in out
+
+
+def test_per_point_reverse_jacobian_equals_forward_mode_and_yields_to_the_memory_budget(monkeypatch):
+    """The default full-model fit's Jacobian is reverse mode per point (one adjoint solve per
+    contact solve); where ``n`` points' reverse pass would not fit the memory budget it is
+    forward mode. Both are AD of the same residuals: the fits agree. Oracle for the data: the
+    exact 2D half-space solution (jr.reference). Tolerance: both fits stop at the same optimum to
+    the least-squares tolerance, so values and Jacobians agree to ~1e-6, not to round-off."""
+    from jaxroll.identify import fit as fit_module
+
+    mat, R = jr.StandardLinearSolid(3e6, 0.25, 1.0), 0.02
+    V, P = (a.ravel() for a in np.meshgrid(np.logspace(-3, -1, 3), [2e3, 5e3]))
+    y = np.asarray(jax.vmap(lambda v, p: jr.reference.exact_cylinder_halfspace(mat, R, p, v).rolling_resistance)(V, P))
+    kw = dict(initial=jr.StandardLinearSolid(2e6, 0.25, 1.0), layer=jr.Layer(np.inf), radius=R,
+              geometry="cylinder", free=("G0", "tau"))
+    seen = []
+    real = fit_module._per_point_memory_fits
+    monkeypatch.setattr(fit_module, "_per_point_memory_fits", lambda *a: seen.append(real(*a)) or seen[-1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentifiabilityWarning)
+        reverse = fit_material(RollingData(V, P, y), **kw)
+        assert seen and all(seen)  # a few points on a coarse grid: within any budget
+        monkeypatch.setattr("jaxroll.grids.memory_budget", lambda: 0)
+        jax.clear_caches()  # the choice is made when the fit's program is traced
+        seen.clear()
+        forward = fit_material(RollingData(V, P, y), **kw)
+    assert seen and not any(seen)
+    for name in ("G0", "tau"):
+        assert forward.params[name] == pytest.approx(reverse.params[name], rel=1e-6)
+    np.testing.assert_allclose(forward.jacobian, reverse.jacobian, rtol=1e-5, atol=1e-8 * np.abs(reverse.jacobian).max())

@@ -511,9 +511,26 @@ def _residuals_and_jacobian_jit(logp, model, data, problem):
 
 def _per_point(model, data, problem) -> bool:
     """Whether :func:`_per_point_jacobian` applies: a full model, rolling data alone, free
-    parameters of the material only (a fixed :class:`jaxroll.Layer`, no shift)."""
+    parameters of the material only (a fixed :class:`jaxroll.Layer`, no shift), and the
+    reverse pass's memory within the budget (:func:`_per_point_memory_fits`)."""
     material_only = all(n not in ("H", "C1", "C2") for n in problem.params.free)
-    return _use_table(problem.method) and "w" not in data and material_only and not isinstance(model[1], Stack)
+    return (_use_table(problem.method) and "w" not in data and material_only and not isinstance(model[1], Stack)
+            and _per_point_memory_fits(problem, data["V"].shape[0]))
+
+
+def _per_point_memory_fits(problem, n: int) -> bool:
+    """Whether ``n`` points' reverse-mode residuals fit :func:`jaxroll.grids.memory_budget`: the
+    reverse pass keeps each point's solve (its kernel and contact solution) until the pullback,
+    bounded by ``n`` times the grid's :meth:`~jaxroll.grids.FixedGrid.memory_estimate` of one
+    evaluation. Above it (or where the grid gives no estimate), the Jacobian is forward mode,
+    whose memory does not grow with ``n``. Decided when the fit's program is traced."""
+    from ..grids import memory_budget
+
+    try:
+        need = n * problem.method.grid.memory_estimate(2 if problem.geometry == "sphere" else 1)
+    except (AttributeError, TypeError, jax.errors.ConcretizationTypeError):
+        return False
+    return need <= memory_budget()
 
 
 def _per_point_jacobian(logp, model, data, problem):
