@@ -1,7 +1,7 @@
 """Benchmark of the full 3D rolling sphere (``jr.Full``, geometry "sphere"): the paper's reference case.
 
 Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3] [--period 0.2 | none] [--grad]
-      [--restart N]
+      [--restart N] [--programs]
 
 Reference case ([ZG] Table 1 / docs/design.md sec. 3): 23 log-spaced speeds 1e-4..1 m/s x 15
 loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at the paper's
@@ -12,7 +12,9 @@ parameters as arguments, as in ``jaxroll.apps.reproduce``): compile apart, media
 
 Reports the device, resolution, the points that are not valid (``RollingResult.result``), the
 active-set iterations and the compiled working memory. ``--quick``: 6 speeds x 4 loads, cells
-0.5 mm, 250 terms, one repeat.
+0.5 mm, 250 terms, one repeat. ``--programs``: also the size of each program (StableHLO text, its
+while loops and FFTs) and its compile time in process CPU seconds (steadier than wall time on a
+shared machine), lowered and compiled again apart from the timed runs.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
+import time
 
 import jax
 import jax.numpy as jnp
@@ -42,6 +46,8 @@ def main():
                     help="GMRES Krylov basis size (default: jr.contact.GMRES's own)")
     ap.add_argument("--grad", action="store_true", help="also time the gradient of the table w.r.t. G0, tau, f, H")
     ap.add_argument("--period", default="0.2", help="period [m] (the paper's 0.2) or 'none' (an infinite layer)")
+    ap.add_argument("--programs", action="store_true",
+                    help="also print each program's size (StableHLO, while loops, FFTs) and compile CPU seconds")
     args = ap.parse_args()
     if args.quick:
         speeds, loads, spacing, n_terms, repeat = np.logspace(-4, 0, 6), np.linspace(10, 150, 4), 5e-4, 250, 1
@@ -82,6 +88,8 @@ def main():
         print(f"compiled temp memory: {compiled.memory_analysis().temp_size_in_bytes / 2**20:.0f} MiB")
     except Exception:  # noqa: BLE001 (not every backend reports it)
         pass
+    if args.programs:
+        program_report("table", table, theta)
     grad_note = ""
     if args.grad:
         def objective(G, tau, f, H, loads, speeds):
@@ -92,12 +100,32 @@ def main():
         print(f"gradient d(sum R_r)/d(G0, tau, f, H): compile {gcomp:.1f} s; run median {gmed:.2f} s "
               f"({gmed / med:.2f}x the forward table); {[float(x) for x in g]}")
         grad_note = f"; gradient (G0, tau, f, H) {gmed:.2f} s = {gmed / med:.2f}x, compile {gcomp:.1f} s"
+        if args.programs:
+            program_report("gradient", jax.grad(objective, argnums=(0, 1, 2, 3)), theta)
     size = f"{len(speeds)}x{len(loads)}, a = {spacing * 1e3:g} mm, H = {args.H * 1e3:g} mm, " + (
         "infinite layer" if period is None else f"L = {period} m, {n_terms} terms")
     summary("bench_sphere3d.py" + (" --quick" if args.quick else "") + f" --H {args.H} --period {args.period}",
             per_case, comp,
             "paper full 3D: 54 min per reference case", f"{PAPER_S / per_case:.0f}x",
             f"{size}; run {med:.2f} s scaled x{345 / v.size:.1f} to 345 points{grad_note}")
+
+
+def program_report(name, fn, args):
+    """Print the size of ``jax.jit(fn)``'s program at ``args`` and its compile time in CPU seconds."""
+    jax.clear_caches()  # compile anew: neither the timed runs' program nor the persistent cache's
+    cached = jax.config.jax_enable_compilation_cache
+    jax.config.update("jax_enable_compilation_cache", False)
+    try:
+        lowered = jax.jit(fn).lower(*args)
+        text = lowered.as_text()
+        cpu, wall = time.process_time(), time.perf_counter()
+        lowered.compile()
+        cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+    finally:
+        jax.config.update("jax_enable_compilation_cache", cached)
+    print(f"program {name}: StableHLO {len(text) / 1e6:.2f} MB, {len(re.findall(r'stablehlo.while', text))} while "
+          f"loops, {len(re.findall(r'stablehlo.fft', text))} FFTs; compile {cpu:.1f} s CPU ({wall:.1f} s wall, "
+          f"load avg {os.getloadavg()[0]:.1f})")
 
 
 if __name__ == "__main__":

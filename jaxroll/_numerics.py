@@ -30,6 +30,7 @@ import warnings
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import jax.scipy.linalg
 import numpy as np
 
 jax.config.update("jax_enable_x64", True)
@@ -310,11 +311,11 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80):
         j, V, R, _, _, g = jax.lax.while_loop(
             lambda s: (s[0] < restart) & (jnp.abs(s[5][s[0]]) > atol), arnoldi_step, init)
 
-        def back_substitute(i, y):  # rows j-1 .. 0 of the triangular R y = g
-            k = j - 1 - i
-            return y.at[k].set((g[k] - R[k, :restart] @ y) / R[k, k])
-
-        y = jax.lax.fori_loop(0, j, back_substitute, jnp.zeros(restart, dtype))
+        # the triangular R[:j, :j] y = g[:j], as one triangular solve of the whole R with unit
+        # rows and a zero right-hand side beyond j (no loop in the program: a shorter compile)
+        used = jnp.arange(restart) < j
+        Rj = jnp.where(used[:, None], R[:restart], jnp.eye(restart, dtype=dtype))
+        y = jax.scipy.linalg.solve_triangular(Rj, jnp.where(used, g[:restart], 0.0), lower=False)
         x = x + M(y @ V[:restart])
         r = b - matvec(x)
         return x, r, jnp.linalg.norm(r), k + 1

@@ -641,12 +641,17 @@ def dissipation_error(zeta, cells, geometry, breadth=0.0) -> jax.Array:
 
     def one(z, c, w):
         logz = jnp.clip(jnp.log10(z), nodes[0], nodes[-1])
-        i = jnp.clip(jnp.searchsorted(jnp.asarray(nodes), logz, side="right") - 1, 0, len(nodes) - 2)
+        # searchsorted by comparison with every node (tiny tables: no loop in the program)
+        i = jnp.clip(jnp.searchsorted(jnp.asarray(nodes), logz, side="right", method="compare_all") - 1, 0,
+                     len(nodes) - 2)
         near_peak = (z >= BROAD_ZETA[0]) & (z <= BROAD_ZETA[1])
         column = jnp.maximum(jnp.maximum(logt[i], logt[i + 1]),
                              jnp.where(near_peak & (w > 0), broad + jnp.log(jnp.maximum(w, 1e-300)), -jnp.inf))
         logc = jnp.log(c)
-        inside = jnp.interp(logc, logcols, column)
+        # jnp.interp's formula, its search by comparison as well
+        k = jnp.clip(jnp.searchsorted(logcols, logc, side="right", method="compare_all"), 1, len(cols) - 1)
+        rise = column[k] - column[k - 1]
+        inside = column[k - 1] + ((logc - logcols[k - 1]) / (logcols[k] - logcols[k - 1])) * rise
         below = column[0] + 2.0 * (logcols[0] - logc)
         above = column[-1] + (logcols[-1] - logc)
         return jnp.exp(jnp.where(logc < logcols[0], below, jnp.where(logc > logcols[-1], above, inside)))

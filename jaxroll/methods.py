@@ -355,6 +355,7 @@ class Full(_GridMethod):
                 return ((_contact.WarmStart.stretched(s.contact, s_next, r_next), first),
                         self._result(model, s, layer, V, material))
 
+            step = jax.checkpoint(step, prevent_cse=False, policy=_contact.SAVED_FOR_DERIVATIVES)
             (_, first), out = jax.lax.scan(step, (first_start, first_start),
                                            (loads, sizes, stretch, ratio, first_load))
             return first, out

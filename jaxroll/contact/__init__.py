@@ -32,7 +32,7 @@ from .operator import (
 )
 from .precondition import CirculantPreconditioner
 from .smoothing import edge_gap_scale
-from .solve import ContactSolution, WarmStart, solve_contact
+from .solve import SAVED_FOR_DERIVATIVES, ContactSolution, WarmStart, solve_contact
 from .system import ContactSystem
 
 __all__ = [
@@ -58,4 +58,5 @@ __all__ = [
     "CirculantPreconditioner",
     "ContactSystem",
     "LOOSE_LINEAR_RTOL",
+    "SAVED_FOR_DERIVATIVES",
 ]

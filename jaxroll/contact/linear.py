@@ -89,6 +89,14 @@ class AbstractLinearSolver(eqx.Module):
         one did. Default: :meth:`solve`, ``robust`` unchanged."""
         return self.solve(matvec, b, x0, precond, rtol), robust
 
+    def solve_derivative(self, matvec, b, precond, rtol) -> jax.Array:
+        """``x`` with ``|b - A x| <= rtol |b|`` from a zero start, for the tangent and adjoint
+        systems of the implicit derivatives (one solve each, on the converged contact set):
+        with a preconditioner pair only its robust level, in one solver (no cheap-first
+        cycle and no fallback branch in the program). Default: :meth:`solve`."""
+        robust = precond[1] if isinstance(precond, tuple) else precond
+        return self.solve(matvec, b, None, robust, rtol)
+
 
 class GMRES(AbstractLinearSolver):
     """Restarted GMRES with right preconditioning (:func:`jaxroll._numerics.gmres`).
@@ -100,10 +108,12 @@ class GMRES(AbstractLinearSolver):
             fallback, :data:`FIRST_SOLVE_CYCLES` before it takes over).
         fallback_restart: basis size of a second solve, from where the first stopped, run only
             when the first missed the tolerance, with the robust level of a preconditioner pair
-            (the whole embedding's inverse; the first solve uses the cheap, folded one) (default :data:`FALLBACK_RESTART` with the
-            preconditioner, none without; ``0``: none). It is skipped where the first solve
-            converges (under ``vmap`` it runs for every lane once one lane needs it), and makes
-            the solves robust at fine resolution, where a short basis stagnates.
+            (the whole embedding's inverse; the first solve uses the cheap, folded one) (default
+            :data:`FALLBACK_RESTART` with the preconditioner, none without; ``0``: none). It is
+            skipped where the first solve converges (under ``vmap`` it runs for every lane once one lane needs it), and
+            makes the solves robust at fine resolution, where a short basis stagnates. The
+            implicit-derivative solves (:meth:`solve_derivative`) run GMRES(``restart``) with the
+            robust level alone.
         preconditioner: right-precondition with the circulant approximation of the compliance on
             the contact set (:mod:`jaxroll.contact.precondition`). Default ``None``: on for 2D
             windows (the 3D sphere: 4-15x fewer operator applications), off in 1D (the default
@@ -139,6 +149,15 @@ class GMRES(AbstractLinearSolver):
 
     def solve(self, matvec, b, x0, precond, rtol):
         return self.solve_tracked(matvec, b, x0, precond, rtol, None)[0]
+
+    def solve_derivative(self, matvec, b, precond, rtol):
+        # one GMRES(restart) with the robust level: the derivative solves need no set decisions,
+        # and one Krylov solver in the program instead of two keeps the gradient's compile short
+        robust = precond[1] if isinstance(precond, tuple) else precond
+        x, _ = gmres(matvec, b, jnp.zeros_like(b), atol=rtol * jnp.linalg.norm(b),
+                     precond=robust if self.preconditioned else None, restart=self.restart,
+                     maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.restart))
+        return x
 
     def solve_tracked(self, matvec, b, x0, precond, rtol, robust):
         # right preconditioning: the stopping test is on the true residual |b - A x| <= rtol |b|.

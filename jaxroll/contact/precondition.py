@@ -22,9 +22,9 @@ spreads as the grid is refined. Measured on a half-space sphere (SLS f = 1, ``ze
 1``, operator applications per solve, GMRES(32)): folded 112 / 215 / 2879 at 12 / 24 / 48 cells
 per radius, the whole embedding 118 / 173 / 150; at 1.5 windows still 940 at 48 cells. So the
 folded one serves the coarse grids and most points of a table at a lower cost, the whole one
-the fine grids near the peak. The same pair (transposed for the adjoint) serves the
-implicit-differentiation solves and, with the soft-min weights, the Newton steps of the smoothed
-contact edge.
+the fine grids near the peak. The whole embedding's level alone (transposed for the adjoint)
+serves the implicit-differentiation solves (one solve each, no set decisions to make fast), and
+the pair, with the soft-min weights, the Newton steps of the smoothed contact edge.
 """
 
 from __future__ import annotations

@@ -257,4 +257,5 @@ def dynamic_contact_size(material, layer, radius, load, speed, geometry="sphere"
         G = jnp.abs(material.complex_modulus(w_per_a / a))
         return estimate_contact_size(material, layer, radius, load, geometry, modulus=G)
 
-    return jax.lax.fori_loop(0, DYNAMIC_SIZE_STEPS, step, a)
+    # each step rematerialised in reverse mode: one saved size per step, not every intermediate
+    return jax.lax.fori_loop(0, DYNAMIC_SIZE_STEPS, jax.checkpoint(step, prevent_cse=False), a)
