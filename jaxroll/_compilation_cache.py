@@ -94,3 +94,207 @@ def enable(environ=None) -> Path | None:
     jax.config.update("jax_compilation_cache_dir", str(directory))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_TIME)
     return directory
+
+
+# ---- traced programs across processes ---------------------------------------------------------
+#
+# JAX's cache stores compiled programs, but a new process still traces and lowers the Python code
+# (about a second for a full-model point) before it can look the program up. ``call`` skips that:
+# it stores the lowered program (StableHLO, ``jax.export``) of a function for one static
+# configuration and input shapes, and a later process loads it, so that only the stored program is
+# compiled, which JAX's cache then finds.
+
+#: Subdirectory of the compilation cache directory that holds the lowered programs.
+PROGRAMS = "jaxroll-lowered"
+
+_FORMAT = 1  # of the stored files; part of every key
+_memo: dict = {}  # (function, input structure, static leaves, shapes) -> (call, output structure)
+_prefix: list = []  # the key's part common to every program of this process (computed once)
+
+
+class _NotPlain(Exception):
+    """A static value whose text would not identify it (a function, an object of unknown type)."""
+
+
+def _canon(x) -> str:
+    """A text that determines the static value ``x`` (the same text, the same value); raises
+    :class:`_NotPlain` for values whose text may not (then the program is not stored)."""
+    import dataclasses
+    import enum
+
+    import numpy as np
+
+    if x is None or isinstance(x, (bool, int, float, complex, str, bytes)):
+        return f"{type(x).__name__}:{x!r}"
+    if isinstance(x, enum.Enum):
+        return f"{_qualname(type(x))}.{x.name}"
+    if isinstance(x, (tuple, list)):
+        return f"{type(x).__name__}({','.join(_canon(v) for v in x)})"
+    if isinstance(x, dict):
+        return "dict(" + ",".join(f"{_canon(k)}={_canon(v)}" for k, v in x.items()) + ")"
+    if isinstance(x, frozenset):
+        return "frozenset(" + ",".join(sorted(_canon(v) for v in x)) + ")"
+    if isinstance(x, type):
+        return f"type:{_qualname(x)}"
+    if isinstance(x, np.dtype):
+        return f"dtype:{x.str}"
+    if isinstance(x, np.generic):
+        return f"{x.dtype.str}:{x.item()!r}"
+    if type(x).__name__ == "_Missing" and type(x).__module__.startswith("equinox"):
+        return "MISSING"
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return f"{_qualname(type(x))}(" + ",".join(
+            f"{f.name}={_canon(getattr(x, f.name, None))}" for f in dataclasses.fields(x)) + ")"
+    raise _NotPlain(type(x))
+
+
+def _qualname(t: type) -> str:
+    if "<locals>" in t.__qualname__:
+        raise _NotPlain(t)
+    return f"{t.__module__}.{t.__qualname__}"
+
+
+def _structure(treedef) -> str:
+    """The text of a pytree structure: every node's type (fully qualified) and static data."""
+    out, stack = [], [treedef]
+    while stack:
+        t = stack.pop()
+        data = t.node_data()
+        children = t.children()
+        out.append("*" if data is None else f"{_qualname(data[0])}[{_canon(data[1])}]/{len(children)}")
+        stack.extend(reversed(children))
+    return ";".join(out)
+
+
+def _key_prefix() -> str:
+    """What every program's key shares: the stored format, the versions of the code that is
+    traced (jaxroll's source files, JAX, jaxlib, equinox, NumPy, SciPy) and JAX's platform."""
+    if not _prefix:
+        import sys
+
+        import importlib.util
+
+        import equinox
+        import jaxlib
+        import numpy
+
+        source = hashlib.sha256()
+        for path in sorted(Path(__file__).parent.rglob("*.py")):
+            source.update(str(path.relative_to(Path(__file__).parent)).encode() + b"\0" + path.read_bytes())
+        # SciPy computes some of the programs' constants on the host; its version file, read
+        # without importing SciPy (a program loaded from the cache needs none of it)
+        spec = importlib.util.find_spec("scipy")
+        scipy_version = Path(spec.origin).with_name("version.py").read_text() if spec and spec.origin else ""
+        versions = (jax.__version__, jaxlib.__version__, equinox.__version__, numpy.__version__, scipy_version,
+                    sys.version)
+        _prefix.append(f"{_FORMAT}|{source.hexdigest()}|{versions}|{jax.default_backend()}|{processor_tag()}")
+    return _prefix[0]
+
+
+def programs_directory() -> Path | None:
+    """Where :func:`call` stores lowered programs: :data:`PROGRAMS` in JAX's compilation cache
+    directory; ``None`` (nothing stored, nothing read) when ``JAXROLL_COMPILATION_CACHE`` switches
+    the cache off, JAX has no local cache directory, or JAX's cache is disabled."""
+    if os.environ.get(ENV_VAR, "").strip().lower() in _OFF:
+        return None
+    directory = jax.config.jax_compilation_cache_dir
+    if not directory or "://" in directory or not jax.config.jax_enable_compilation_cache:
+        return None
+    return Path(directory) / PROGRAMS
+
+
+def call(fn, *args):
+    """``fn(*args)``, with ``fn`` a jitted function (``jax.jit`` or ``equinox.filter_jit``) whose
+    non-array arguments are static, through a lowered program kept across processes: the first
+    process to call ``fn`` with a static configuration and input shapes stores the program
+    (:func:`programs_directory`); later processes load and run it instead of tracing ``fn``. The
+    numbers are those of ``fn`` (the same program). ``fn`` itself runs when an input is traced
+    (a user's ``jit``/``vmap``/``grad``), when the cache is off, or when a static value has no
+    text that identifies it."""
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    if any(isinstance(x, jax.core.Tracer) for x in leaves):
+        return fn(*args)
+    dynamic = [i for i, x in enumerate(leaves) if _is_array(x)]
+    static = tuple(None if i in dynamic else x for i, x in enumerate(leaves))
+    shapes = tuple((tuple(leaves[i].shape), str(leaves[i].dtype), bool(getattr(leaves[i], "weak_type", False)))
+                   for i in dynamic)
+    try:
+        memo_key = (fn, treedef, static, shapes)
+        entry = _memo.get(memo_key)
+    except TypeError:  # an unhashable static value: fn's own jit would refuse it too
+        return fn(*args)
+    if entry is None:
+        entry = _lowered(fn, leaves, treedef, dynamic, shapes)
+        _memo[memo_key] = entry
+    if entry is False:
+        return fn(*args)
+    run, out_tree = entry
+    try:
+        out = run(*[leaves[i] for i in dynamic])
+    except Exception:  # noqa: BLE001  (a stored program this JAX cannot run: fn itself from now on)
+        _memo[memo_key] = False
+        return fn(*args)
+    return jax.tree_util.tree_unflatten(out_tree, out)
+
+
+def _qualname_of(fn) -> str:
+    fn = getattr(fn, "__wrapped__", fn)
+    return f"{fn.__module__}.{fn.__qualname__}"
+
+
+def _is_array(x) -> bool:
+    import numpy as np
+
+    return isinstance(x, (jax.Array, np.ndarray))
+
+
+def _lowered(fn, leaves, treedef, dynamic, shapes):
+    """``(run, output structure)`` of ``fn`` at this configuration, loaded or lowered and stored;
+    ``False`` where it cannot be stored (then ``fn`` runs as usual)."""
+    import dataclasses
+    import logging
+    import pickle
+
+    directory = programs_directory()
+    if directory is None:
+        return False
+    try:
+        key = "|".join((_key_prefix(), _qualname_of(fn), _structure(treedef),
+                        _canon(tuple(None if i in dynamic else x for i, x in enumerate(leaves))), repr(shapes),
+                        repr(jax._src.config.trace_context())))
+    except _NotPlain:
+        return False
+    path = directory / f"{getattr(fn, '__name__', 'fn')}-{hashlib.sha256(key.encode()).hexdigest()[:32]}.pkl"
+    try:
+        with open(path, "rb") as fh:
+            stored = pickle.load(fh)
+        if stored["key"] == key:
+            exported = stored["exported"]
+            return jax.jit(exported.call), jax.tree_util.tree_structure(stored["outputs"])
+    except Exception:  # noqa: BLE001  (absent, unreadable or from another version: lower anew)
+        pass
+
+    def flat(*values):
+        full = list(leaves)
+        for i, v in zip(dynamic, values):
+            full[i] = v
+        out, out_tree = jax.tree_util.tree_flatten(fn(*jax.tree_util.tree_unflatten(treedef, full)))
+        structure.append(out_tree)
+        return out
+
+    structure: list = []
+    avals = [jax.ShapeDtypeStruct(s, d, weak_type=w) for s, d, w in shapes]
+    try:
+        exported = jax.export.export(jax.jit(flat))(*avals)
+        if exported.ordered_effects or exported.unordered_effects or exported.nr_devices != 1:
+            return False
+        outputs = jax.tree_util.tree_unflatten(structure[0], range(structure[0].num_leaves))
+        blob = pickle.dumps({"key": key, "exported": dataclasses.replace(exported, _get_vjp=None), "outputs": outputs})
+        directory.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(blob)
+        os.replace(tmp, path)
+    except Exception as err:  # noqa: BLE001  (an unexportable program or an unwritable folder: run fn itself)
+        logging.getLogger("jaxroll").debug("not storing the lowered program of %s: %s", _qualname_of(fn), err)
+        return False
+    return jax.jit(exported.call), structure[0]

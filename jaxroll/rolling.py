@@ -27,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _compilation_cache
 from ._numerics import any_traced, as_float, check_plausible, check_roller_values, input_checks, roller_inputs
 from .engines.layer import Layer, check_subsonic
 from .engines.stack import Stack, models
@@ -181,7 +182,7 @@ def rolling_resistance(material, layer=None, *, radius, load, speed, geometry="s
     material, layer = models(material, layer)
     method, traced = _prepare(method, material, layer, radius, load, speed, geometry)
     radius, load, speed = as_float(radius), as_float(load), as_float(speed)
-    res = _point(method.dynamic(), material, layer, radius, load, speed, geometry, traced)
+    res = _compilation_cache.call(_point, method.dynamic(), material, layer, radius, load, speed, geometry, traced)
     return _finish(res, bool(throw), "rolling_resistance")
 
 
@@ -205,5 +206,6 @@ def rolling_resistance_grid(material, layer=None, *, radius, loads, speeds, geom
         raise ValueError(f"loads and speeds must be non-empty 1D arrays; got shapes {loads.shape} and {speeds.shape}")
     material, layer = models(material, layer)
     method, traced = _prepare(method, material, layer, radius, loads, speeds, geometry)
-    res = _grid(method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry, traced)
+    res = _compilation_cache.call(_grid, method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry,
+                                  traced)
     return _finish(res, bool(throw), "rolling_resistance_grid")
