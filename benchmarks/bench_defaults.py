@@ -113,21 +113,23 @@ def per_point(entry, repeat=3):
 
 
 def first_call_child(entry):
-    """In a fresh process: import + inputs + first call [s], printed as JSON."""
-    t = time.perf_counter()
+    """In a fresh process: import + inputs + first call, wall and CPU seconds, printed as JSON."""
+    t, c = time.perf_counter(), time.process_time()
     import jax
 
     call, _ = build(entry)
     jax.block_until_ready(call() if not entry.startswith("map-") else call().value)
-    print(json.dumps({"first": time.perf_counter() - t}))
+    print(json.dumps({"first": time.perf_counter() - t, "cpu": time.process_time() - c}))
 
 
-def first_call(entry, cache):
-    """First-call seconds of ``entry`` in a new process; ``cache``: ``"0"`` (off) or a folder."""
+def first_call(entry, cache, cpu=False):
+    """First-call seconds of ``entry`` in a new process (``cpu``: ``(wall, CPU)``); ``cache``:
+    ``"0"`` (off) or a folder."""
     env = dict(os.environ, JAXROLL_COMPILATION_CACHE=cache)
     out = subprocess.run([sys.executable, __file__, "--child", entry], env=env, capture_output=True, text=True,
                          check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])["first"]
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    return (got["first"], got["cpu"]) if cpu else got["first"]
 
 
 def main():

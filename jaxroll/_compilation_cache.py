@@ -209,10 +209,11 @@ def call(fn, *args):
     process to call ``fn`` with a static configuration and input shapes stores the program
     (:func:`programs_directory`); later processes load and run it instead of tracing ``fn``. The
     numbers are those of ``fn`` (the same program). ``fn`` itself runs when an input is traced
-    (a user's ``jit``/``vmap``/``grad``), when the cache is off, or when a static value has no
-    text that identifies it."""
+    or the call is part of a user's ``jit``/``vmap``/``grad``, when the cache is off, or when a
+    static value has no text that identifies it. Only for jaxroll's own functions: the key holds
+    jaxroll's source, not the caller's."""
     leaves, treedef = jax.tree_util.tree_flatten(args)
-    if any(isinstance(x, jax.core.Tracer) for x in leaves):
+    if not _outside_traces() or any(isinstance(x, jax.core.Tracer) for x in leaves):
         return fn(*args)
     dynamic = [i for i, x in enumerate(leaves) if _is_array(x)]
     static = tuple(None if i in dynamic else x for i, x in enumerate(leaves))
@@ -237,9 +238,30 @@ def call(fn, *args):
     return jax.tree_util.tree_unflatten(out_tree, out)
 
 
+def _outside_traces() -> bool:
+    """Whether no JAX transformation is tracing (a call inside a user's ``jit`` with concrete
+    inputs runs ``fn`` itself, as part of the user's program)."""
+    clean = getattr(jax._src.core, "trace_state_clean", None)
+    return bool(clean and clean())
+
+
 def _qualname_of(fn) -> str:
     fn = getattr(fn, "__wrapped__", fn)
     return f"{fn.__module__}.{fn.__qualname__}"
+
+
+def _outside_source(fn) -> str:
+    """A hash of the file that defines ``fn`` where that is not part of jaxroll (whose source
+    the key holds already); ``""`` otherwise."""
+    import sys
+
+    module = sys.modules.get(getattr(getattr(fn, "__wrapped__", fn), "__module__", ""))
+    path = Path(getattr(module, "__file__", None) or "")
+    if not path.is_file():
+        raise _NotPlain(fn)
+    if path.resolve().is_relative_to(Path(__file__).resolve().parent):
+        return ""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def _is_array(x) -> bool:
@@ -259,7 +281,7 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
     if directory is None:
         return False
     try:
-        key = "|".join((_key_prefix(), _qualname_of(fn), _structure(treedef),
+        key = "|".join((_key_prefix(), _qualname_of(fn), _outside_source(fn), _structure(treedef),
                         _canon(tuple(None if i in dynamic else x for i, x in enumerate(leaves))), repr(shapes),
                         repr(jax._src.config.trace_context())))
     except _NotPlain:
