@@ -28,6 +28,21 @@ later process loads it instead of compiling it again; tracing the Python code st
 
 Only programs without host callbacks can be stored (a JAX rule): the front doors keep theirs
 free of callbacks when the inputs are concrete (see :mod:`jaxroll.rolling`).
+
+JAX's cache keeps compiled programs, so a new process still traces and lowers the Python code
+before it finds one (about a second for a full-model point). :func:`call` removes that step for
+the front doors and the automatic grid's sizing programs: it stores each one's lowered program
+(StableHLO, ``jax.export``) in :data:`PROGRAMS` inside the cache directory, one file per static
+configuration and input shapes, and a later process loads it and compiles it, which JAX's cache
+then finds. The key of a file holds everything the lowered program depends on: jaxroll's source
+files, the versions of JAX, jaxlib, equinox, NumPy, SciPy and Python, JAX's platform and tracing
+settings (``jax_enable_x64``, dtype promotion, ...), the function, the exact text of every static
+argument and pytree node (fully qualified types; a value without an exact text, e.g. a function,
+is not stored), and the shapes, dtypes and weak types of the array inputs. The numbers are those
+of the traced program bit for bit (the same StableHLO, compiled the same way). Calls under a
+user's ``jit``/``vmap``/``grad`` (traced inputs, or any trace under way) run the function itself,
+so transformations see the original program. A file that is absent, unreadable or of another
+key is written anew; a stored program that does not run leaves the function to run itself.
 """
 
 from __future__ import annotations
