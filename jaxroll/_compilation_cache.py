@@ -123,7 +123,7 @@ def enable(environ=None) -> Path | None:
 PROGRAMS = "jaxroll-lowered"
 
 _FORMAT = 1  # of the stored files; part of every key
-_memo: dict = {}  # (function, input structure, static leaves, shapes) -> (call, output structure)
+_memo: dict = {}  # (function, input structure, static leaves, shapes, trace context) -> (run, output structure)
 _prefix: list = []  # the key's part common to every program of this process (computed once)
 
 
@@ -139,10 +139,10 @@ def _canon(x) -> str:
 
     import numpy as np
 
-    if x is None or isinstance(x, (bool, int, float, complex, str, bytes)):
-        return f"{type(x).__name__}:{x!r}"
     if isinstance(x, enum.Enum):
         return f"{_qualname(type(x))}.{x.name}"
+    if x is None or type(x) in (bool, int, float, complex, str, bytes):
+        return f"{type(x).__name__}:{x!r}"
     if isinstance(x, (tuple, list)):
         return f"{type(x).__name__}({','.join(_canon(v) for v in x)})"
     if isinstance(x, dict):
@@ -185,9 +185,8 @@ def _key_prefix() -> str:
     """What every program's key shares: the stored format, the versions of the code that is
     traced (jaxroll's source files, JAX, jaxlib, equinox, NumPy, SciPy) and JAX's platform."""
     if not _prefix:
-        import sys
-
         import importlib.util
+        import sys
 
         import equinox
         import jaxlib
@@ -231,11 +230,11 @@ def call(fn, *args):
     if not _outside_traces() or any(isinstance(x, jax.core.Tracer) for x in leaves):
         return fn(*args)
     dynamic = [i for i, x in enumerate(leaves) if _is_array(x)]
-    static = tuple(None if i in dynamic else x for i, x in enumerate(leaves))
+    static = tuple(None if _is_array(x) else x for x in leaves)
     shapes = tuple((tuple(leaves[i].shape), str(leaves[i].dtype), bool(getattr(leaves[i], "weak_type", False)))
                    for i in dynamic)
     try:
-        memo_key = (fn, treedef, static, shapes)
+        memo_key = (fn, treedef, static, shapes, jax._src.config.trace_context())
         entry = _memo.get(memo_key)
     except TypeError:  # an unhashable static value: fn's own jit would refuse it too
         return fn(*args)
@@ -255,9 +254,9 @@ def call(fn, *args):
 
 def _outside_traces() -> bool:
     """Whether no JAX transformation is tracing (a call inside a user's ``jit`` with concrete
-    inputs runs ``fn`` itself, as part of the user's program)."""
+    inputs runs ``fn`` itself, as part of the user's program) and ``jax.disable_jit`` is off."""
     clean = getattr(jax._src.core, "trace_state_clean", None)
-    return bool(clean and clean())
+    return bool(clean and clean()) and not jax.config.jax_disable_jit
 
 
 def _qualname_of(fn) -> str:
@@ -297,7 +296,7 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
         return False
     try:
         key = "|".join((_key_prefix(), _qualname_of(fn), _outside_source(fn), _structure(treedef),
-                        _canon(tuple(None if i in dynamic else x for i, x in enumerate(leaves))), repr(shapes),
+                        _canon(tuple(None if _is_array(x) else x for x in leaves)), repr(shapes),
                         repr(jax._src.config.trace_context())))
     except _NotPlain:
         return False
