@@ -227,9 +227,12 @@ def test_front_door_through_the_stored_program_gives_the_same_bits():
 
 def test_import_before_jax_quiets_xla_log_only_with_the_cache_on():
     """``import jaxroll`` before JAX sets TF_CPP_MIN_LOG_LEVEL=3 (XLA's false SIGILL lines on
-    loading cached programs) when the cache is on and the variable unset; JAX itself sets 1."""
+    loading cached programs) when the cache is on and the variable unset; JAX itself sets 1.
+    The import loads neither SciPy nor the fits, and every public name resolves."""
     code = ("import sys, os\nif sys.argv[1] == 'jax': import jax\nimport jaxroll\n"
             "assert 'scipy' not in sys.modules  # imported where used: a stored program needs none of it\n"
+            "assert 'jaxroll.identify' not in sys.modules  # public names of the fits etc. load on first use\n"
+            "assert all(getattr(jaxroll, n) is not None for n in jaxroll.__all__) and callable(jaxroll.sweep)\n"
             "print(os.environ['TF_CPP_MIN_LOG_LEVEL'])")
     base = {k: v for k, v in os.environ.items() if k not in ("TF_CPP_MIN_LOG_LEVEL", "JAXROLL_COMPILATION_CACHE")}
     base["PYTHONPATH"] = str(ROOT) + os.pathsep + base.get("PYTHONPATH", "")
