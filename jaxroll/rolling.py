@@ -6,7 +6,9 @@ the geometry, ``throw`` and the input shapes are the cache key; the physical val
 and layer parameters, radius, loads, speeds, and the grid's cell size and period) are traced
 values of the compiled program. So a second call with new values compiles nothing, and under
 ``jax.jit``, ``jax.vmap`` and ``jax.grad`` the numbers are those of an eager call with the same
-(resolved) method.
+(resolved) method. With concrete inputs and the compilation cache on, a new process runs the
+lowered program that an earlier one stored for the same static setup and shapes
+(:func:`jaxroll._compilation_cache.call`) instead of tracing it again, with the same numbers.
 
 Checks and failures: with concrete inputs (an ordinary call) the input rules are checked on the
 host before anything is compiled (``ValueError``; values allowed but far outside the physical
