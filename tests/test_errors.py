@@ -211,18 +211,21 @@ def test_lowered_program_is_stored_loaded_and_gives_the_same_bits(tmp_path, monk
 
 
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
-def test_front_door_through_the_stored_program_gives_the_same_bits():
-    # the point as jr.rolling_resistance runs it (stored program, the session's cache being on)
-    # against the jitted function itself
+def test_front_door_through_the_stored_program_gives_the_same_bits(tmp_path, monkeypatch):
+    # the point as jr.rolling_resistance runs it with the stored programs on (the suite runs with
+    # them off: tests/conftest.py), stored and then loaded, against the jitted function itself
     from jaxroll import rolling
     from jaxroll._numerics import as_float
 
-    assert _compilation_cache.programs_directory() is not None
-    got = _direct(20.0, throw=False)
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
+    _forget(rolling._point)
+    stored = _direct(20.0, throw=False)
+    assert list(tmp_path.glob("_point-*.pkl"))
+    _forget(rolling._point)
+    loaded = _direct(20.0, throw=False)
     method = jr.methods.as_method("direct").dynamic()
     want = rolling._point(method, SLS, THIN, as_float(R), as_float(20.0), as_float(0.01), "sphere", False)
-    assert _same_bits(got, want)
-    assert list(_compilation_cache.programs_directory().glob("_point-*.pkl"))
+    assert _same_bits(stored, want) and _same_bits(loaded, want)
 
 
 def test_import_before_jax_quiets_xla_log_only_with_the_cache_on():
