@@ -43,6 +43,8 @@ of the traced program bit for bit (the same StableHLO, compiled the same way). C
 user's ``jit``/``vmap``/``grad`` (traced inputs, or any trace under way) run the function itself,
 so transformations see the original program. A file that is absent, unreadable or of another
 key is written anew; a stored program that does not run leaves the function to run itself.
+The files are Python pickles: the cache directory must be as trusted as the code that reads it
+(as JAX's own cache is).
 """
 
 from __future__ import annotations
