@@ -7,7 +7,9 @@ For each entry point called as a user calls it, without ``method=``:
 * first call in a fresh process: ``import jaxroll`` + building the inputs + the first call,
   timed inside a new Python process, with JAX's persistent compilation cache off
   (``JAXROLL_COMPILATION_CACHE=0``) and on (a new cache folder, filled by one process and then
-  read by a second: the second process's time is reported).
+  read by a second: the second process's wall time is reported, and its CPU time, the steadier
+  figure on a shared machine). With the cache on, the second process loads the lowered programs
+  the first one stored (``jaxroll._compilation_cache.call``) and their compiled code.
 
 Entry points (the paper's material SLS G0 = 3 MPa, tau = 0.25 s, f = 1; R = 2 cm; H = 30 mm,
 rho = 1000 kg/m^3):
@@ -113,21 +115,23 @@ def per_point(entry, repeat=3):
 
 
 def first_call_child(entry):
-    """In a fresh process: import + inputs + first call [s], printed as JSON."""
-    t = time.perf_counter()
+    """In a fresh process: import + inputs + first call, wall and CPU seconds, printed as JSON."""
+    t, c = time.perf_counter(), time.process_time()
     import jax
 
     call, _ = build(entry)
     jax.block_until_ready(call() if not entry.startswith("map-") else call().value)
-    print(json.dumps({"first": time.perf_counter() - t}))
+    print(json.dumps({"first": time.perf_counter() - t, "cpu": time.process_time() - c}))
 
 
-def first_call(entry, cache):
-    """First-call seconds of ``entry`` in a new process; ``cache``: ``"0"`` (off) or a folder."""
+def first_call(entry, cache, cpu=False):
+    """First-call seconds of ``entry`` in a new process (``cpu``: ``(wall, CPU)``); ``cache``:
+    ``"0"`` (off) or a folder."""
     env = dict(os.environ, JAXROLL_COMPILATION_CACHE=cache)
     out = subprocess.run([sys.executable, __file__, "--child", entry], env=env, capture_output=True, text=True,
                          check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])["first"]
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    return (got["first"], got["cpu"]) if cpu else got["first"]
 
 
 def main():
@@ -145,20 +149,20 @@ def main():
         entries = [e for e in entries if e.startswith("point-")]
     from _timing import summary
 
-    print("entry | per point [s] | first call, cache off [s] | first call, cache on (second process) [s]")
+    print("entry | per point [s] | first call, cache off [s] | first call, cache on (second process) [s] (its CPU [s])")
     load_start, rows = round(os.getloadavg()[0], 1), []
     for entry in entries:
         pp = per_point(entry)
-        off = on = float("nan")
+        off = on = on_cpu = float("nan")
         if not args.no_first:
             off = first_call(entry, "0")
             if not args.quick:
                 with tempfile.TemporaryDirectory() as cache:
                     first_call(entry, cache)  # fills the cache
-                    on = first_call(entry, cache)
-        print(f"{entry} | {pp:.4f} | {off:.1f} | {on:.1f}", flush=True)
+                    on, on_cpu = first_call(entry, cache, cpu=True)
+        print(f"{entry} | {pp:.4f} | {off:.1f} | {on:.1f} ({on_cpu:.1f})", flush=True)
         rows.append(dict(entry=entry, per_point_s=pp, first_cache_off_s=None if off != off else off,
-                         first_cache_on_s=None if on != on else on))
+                         first_cache_on_s=None if on != on else on, first_cache_on_cpu_s=None if on != on else on_cpu))
         summary(f"bench_defaults.py{' --quick' if args.quick else ''} ({entry})", pp, off, "", "",
                 f"default method (full model), per point; first call cache off {off:.1f} s, on {on:.1f} s")
     if args.record:

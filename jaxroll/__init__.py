@@ -45,16 +45,42 @@ from ._numerics import PlausibilityWarning
 from .geometry import Geometry
 from .result import RESULTS, GridSolution, RollingResult, SolverError, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
-from .sweep import Grid, sweep, sweep_mesh
-from .maps import ResistanceMap, resistance_map
+from .sweep import Grid, sweep, sweep_mesh  # (eager: the name sweep is both a module and a function)
 
 # --- identification: DMA -> master curve -> Prony, and fits to rolling data ----------------
-from .io import DataWarning
 from .materials import fit_prony, fit_shift_factors, fit_wlf, load_material, master_curve, read_dma_sweeps, save_material
-from .identify.fit import DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material
 
 # --- subpackages and modules reachable as attributes ---------------------------------------
-from . import apps, contact, conveyor, datasets, engines, grids, identify, io, materials, methods, reference  # noqa: E402
+from . import contact, engines, grids, materials, methods, reference  # noqa: E402
+
+#: Public names imported on first use (module ``__getattr__``): the maps, the fits, the conveyor
+#: front end, the command line and the data sets, which a rolling-resistance call does not need
+#: (a shorter ``import jaxroll``; benchmarks/LOG.md). name -> (module, attribute or None for the
+#: module itself)
+_LAZY = {
+    "ResistanceMap": (".maps", "ResistanceMap"), "resistance_map": (".maps", "resistance_map"),
+    "DataWarning": (".io", "DataWarning"),
+    **{n: (".identify.fit", n) for n in ("DMAData", "FitResult", "IdentifiabilityWarning", "MisfitWarning",
+                                         "RollingData", "fit_material")},
+    **{n: (f".{n}", None) for n in ("apps", "conveyor", "datasets", "identify", "io")},
+}
+
+
+def __getattr__(name):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'jaxroll' has no attribute {name!r}")
+    import importlib
+
+    module, attribute = _LAZY[name]
+    module = importlib.import_module(module, __name__)
+    value = module if attribute is None else getattr(module, attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 #: the package version (the one source: pyproject.toml reads it)
 __version__ = "0.1.0"

@@ -28,6 +28,23 @@ later process loads it instead of compiling it again; tracing the Python code st
 
 Only programs without host callbacks can be stored (a JAX rule): the front doors keep theirs
 free of callbacks when the inputs are concrete (see :mod:`jaxroll.rolling`).
+
+JAX's cache keeps compiled programs, so a new process still traces and lowers the Python code
+before it finds one (about a second for a full-model point). :func:`call` removes that step for
+the front doors and the automatic grid's sizing programs: it stores each one's lowered program
+(StableHLO, ``jax.export``) in :data:`PROGRAMS` inside the cache directory, one file per static
+configuration and input shapes, and a later process loads it and compiles it, which JAX's cache
+then finds. The key of a file holds everything the lowered program depends on: jaxroll's source
+files, the versions of JAX, jaxlib, equinox, NumPy, SciPy and Python, JAX's platform and tracing
+settings (``jax_enable_x64``, dtype promotion, ...), the function, the exact text of every static
+argument and pytree node (fully qualified types; a value without an exact text, e.g. a function,
+is not stored), and the shapes, dtypes and weak types of the array inputs. The numbers are those
+of the traced program bit for bit (the same StableHLO, compiled the same way). Calls under a
+user's ``jit``/``vmap``/``grad`` (traced inputs, or any trace under way) run the function itself,
+so transformations see the original program. A file that is absent, unreadable or of another
+key is written anew; a stored program that does not run leaves the function to run itself.
+The files are Python pickles: the cache directory must be as trusted as the code that reads it
+(as JAX's own cache is).
 """
 
 from __future__ import annotations
@@ -94,3 +111,228 @@ def enable(environ=None) -> Path | None:
     jax.config.update("jax_compilation_cache_dir", str(directory))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_TIME)
     return directory
+
+
+# ---- traced programs across processes ---------------------------------------------------------
+#
+# JAX's cache stores compiled programs, but a new process still traces and lowers the Python code
+# (about a second for a full-model point) before it can look the program up. ``call`` skips that:
+# it stores the lowered program (StableHLO, ``jax.export``) of a function for one static
+# configuration and input shapes, and a later process loads it, so that only the stored program is
+# compiled, which JAX's cache then finds.
+
+#: Subdirectory of the compilation cache directory that holds the lowered programs.
+PROGRAMS = "jaxroll-lowered"
+
+_FORMAT = 1  # of the stored files; part of every key
+_memo: dict = {}  # (function, input structure, static leaves, shapes, trace context) -> (run, output structure)
+_prefix: list = []  # the key's part common to every program of this process (computed once)
+
+
+class _NotPlain(Exception):
+    """A static value whose text would not identify it (a function, an object of unknown type)."""
+
+
+def _canon(x) -> str:
+    """A text that determines the static value ``x`` (the same text, the same value); raises
+    :class:`_NotPlain` for values whose text may not (then the program is not stored)."""
+    import dataclasses
+    import enum
+
+    import numpy as np
+
+    if isinstance(x, enum.Enum):
+        return f"{_qualname(type(x))}.{x.name}"
+    if x is None or type(x) in (bool, int, float, complex, str, bytes):
+        return f"{type(x).__name__}:{x!r}"
+    if isinstance(x, (tuple, list)):
+        return f"{type(x).__name__}({','.join(_canon(v) for v in x)})"
+    if isinstance(x, dict):
+        return "dict(" + ",".join(f"{_canon(k)}={_canon(v)}" for k, v in x.items()) + ")"
+    if isinstance(x, frozenset):
+        return "frozenset(" + ",".join(sorted(_canon(v) for v in x)) + ")"
+    if isinstance(x, type):
+        return f"type:{_qualname(x)}"
+    if isinstance(x, np.dtype):
+        return f"dtype:{x.str}"
+    if isinstance(x, np.generic):
+        return f"{x.dtype.str}:{x.item()!r}"
+    if type(x).__name__ == "_Missing" and type(x).__module__.startswith("equinox"):
+        return "MISSING"
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return f"{_qualname(type(x))}(" + ",".join(
+            f"{f.name}={_canon(getattr(x, f.name, None))}" for f in dataclasses.fields(x)) + ")"
+    raise _NotPlain(type(x))
+
+
+def _qualname(t: type) -> str:
+    if "<locals>" in t.__qualname__:
+        raise _NotPlain(t)
+    return f"{t.__module__}.{t.__qualname__}"
+
+
+def _structure(treedef) -> str:
+    """The text of a pytree structure: every node's type (fully qualified) and static data."""
+    out, stack = [], [treedef]
+    while stack:
+        t = stack.pop()
+        data = t.node_data()
+        children = t.children()
+        out.append("*" if data is None else f"{_qualname(data[0])}[{_canon(data[1])}]/{len(children)}")
+        stack.extend(reversed(children))
+    return ";".join(out)
+
+
+def _key_prefix() -> str:
+    """What every program's key shares: the stored format, the versions of the code that is
+    traced (jaxroll's source files, JAX, jaxlib, equinox, NumPy, SciPy) and JAX's platform."""
+    if not _prefix:
+        import importlib.util
+        import sys
+
+        import equinox
+        import jaxlib
+        import numpy
+
+        source = hashlib.sha256()
+        for path in sorted(Path(__file__).parent.rglob("*.py")):
+            source.update(str(path.relative_to(Path(__file__).parent)).encode() + b"\0" + path.read_bytes())
+        # SciPy computes some of the programs' constants on the host; its version file, read
+        # without importing SciPy (a program loaded from the cache needs none of it)
+        spec = importlib.util.find_spec("scipy")
+        scipy_version = Path(spec.origin).with_name("version.py").read_text() if spec and spec.origin else ""
+        versions = (jax.__version__, jaxlib.__version__, equinox.__version__, numpy.__version__, scipy_version,
+                    sys.version)
+        _prefix.append(f"{_FORMAT}|{source.hexdigest()}|{versions}|{jax.default_backend()}|{processor_tag()}")
+    return _prefix[0]
+
+
+def programs_directory() -> Path | None:
+    """Where :func:`call` stores lowered programs: :data:`PROGRAMS` in JAX's compilation cache
+    directory; ``None`` (nothing stored, nothing read) when ``JAXROLL_COMPILATION_CACHE`` switches
+    the cache off, JAX has no local cache directory, or JAX's cache is disabled."""
+    if os.environ.get(ENV_VAR, "").strip().lower() in _OFF:
+        return None
+    directory = jax.config.jax_compilation_cache_dir
+    if not directory or "://" in directory or not jax.config.jax_enable_compilation_cache:
+        return None
+    return Path(directory) / PROGRAMS
+
+
+def call(fn, *args):
+    """``fn(*args)``, with ``fn`` a jitted function (``jax.jit`` or ``equinox.filter_jit``) whose
+    non-array arguments are static, through a lowered program kept across processes: the first
+    process to call ``fn`` with a static configuration and input shapes stores the program
+    (:func:`programs_directory`); later processes load and run it instead of tracing ``fn``. The
+    numbers are those of ``fn`` (the same program). ``fn`` itself runs when an input is traced
+    or the call is part of a user's ``jit``/``vmap``/``grad``, when the cache is off, or when a
+    static value has no text that identifies it. Only for jaxroll's own functions: the key holds
+    jaxroll's source, not the caller's."""
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    if not _outside_traces() or any(isinstance(x, jax.core.Tracer) for x in leaves):
+        return fn(*args)
+    dynamic = [i for i, x in enumerate(leaves) if _is_array(x)]
+    static = tuple(None if _is_array(x) else x for x in leaves)
+    shapes = tuple((tuple(leaves[i].shape), str(leaves[i].dtype), bool(getattr(leaves[i], "weak_type", False)))
+                   for i in dynamic)
+    try:
+        memo_key = (fn, treedef, static, shapes, jax._src.config.trace_context())
+        entry = _memo.get(memo_key)
+    except TypeError:  # an unhashable static value: fn's own jit would refuse it too
+        return fn(*args)
+    if entry is None:
+        entry = _lowered(fn, leaves, treedef, dynamic, shapes)
+        _memo[memo_key] = entry
+    if entry is False:
+        return fn(*args)
+    run, out_tree = entry
+    try:
+        out = run(*[leaves[i] for i in dynamic])
+    except Exception:  # noqa: BLE001  (a stored program this JAX cannot run: fn itself from now on)
+        _memo[memo_key] = False
+        return fn(*args)
+    return jax.tree_util.tree_unflatten(out_tree, out)
+
+
+def _outside_traces() -> bool:
+    """Whether no JAX transformation is tracing (a call inside a user's ``jit`` with concrete
+    inputs runs ``fn`` itself, as part of the user's program) and ``jax.disable_jit`` is off."""
+    clean = getattr(jax._src.core, "trace_state_clean", None)
+    return bool(clean and clean()) and not jax.config.jax_disable_jit
+
+
+def _qualname_of(fn) -> str:
+    fn = getattr(fn, "__wrapped__", fn)
+    return f"{fn.__module__}.{fn.__qualname__}"
+
+
+def _outside_source(fn) -> str:
+    """A hash of the file that defines ``fn`` where that is not part of jaxroll (whose source
+    the key holds already); ``""`` otherwise."""
+    import sys
+
+    module = sys.modules.get(getattr(getattr(fn, "__wrapped__", fn), "__module__", ""))
+    path = Path(getattr(module, "__file__", None) or "")
+    if not path.is_file():
+        raise _NotPlain(fn)
+    if path.resolve().is_relative_to(Path(__file__).resolve().parent):
+        return ""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _is_array(x) -> bool:
+    import numpy as np
+
+    return isinstance(x, (jax.Array, np.ndarray))
+
+
+def _lowered(fn, leaves, treedef, dynamic, shapes):
+    """``(run, output structure)`` of ``fn`` at this configuration, loaded or lowered and stored;
+    ``False`` where it cannot be stored (then ``fn`` runs as usual)."""
+    import dataclasses
+    import logging
+    import pickle
+
+    directory = programs_directory()
+    if directory is None:
+        return False
+    try:
+        key = "|".join((_key_prefix(), _qualname_of(fn), _outside_source(fn), _structure(treedef),
+                        _canon(tuple(None if _is_array(x) else x for x in leaves)), repr(shapes),
+                        repr(jax._src.config.trace_context())))
+    except _NotPlain:
+        return False
+    path = directory / f"{getattr(fn, '__name__', 'fn')}-{hashlib.sha256(key.encode()).hexdigest()[:32]}.pkl"
+    try:
+        with open(path, "rb") as fh:
+            stored = pickle.load(fh)
+        if stored["key"] == key:
+            exported = stored["exported"]
+            return jax.jit(exported.call), jax.tree_util.tree_structure(stored["outputs"])
+    except Exception:  # noqa: BLE001  (absent, unreadable or from another version: lower anew)
+        pass
+
+    def flat(*values):
+        full = list(leaves)
+        for i, v in zip(dynamic, values):
+            full[i] = v
+        out, out_tree = jax.tree_util.tree_flatten(fn(*jax.tree_util.tree_unflatten(treedef, full)))
+        structure.append(out_tree)
+        return out
+
+    structure: list = []
+    avals = [jax.ShapeDtypeStruct(s, d, weak_type=w) for s, d, w in shapes]
+    try:
+        exported = jax.export.export(jax.jit(flat))(*avals)
+        if exported.ordered_effects or exported.unordered_effects or exported.nr_devices != 1:
+            return False
+        outputs = jax.tree_util.tree_unflatten(structure[0], range(structure[0].num_leaves))
+        blob = pickle.dumps({"key": key, "exported": dataclasses.replace(exported, _get_vjp=None), "outputs": outputs})
+        directory.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(blob)
+        os.replace(tmp, path)
+    except Exception as err:  # noqa: BLE001  (an unexportable program or an unwritable folder: run fn itself)
+        logging.getLogger("jaxroll").debug("not storing the lowered program of %s: %s", _qualname_of(fn), err)
+        return False
+    return jax.jit(exported.call), structure[0]

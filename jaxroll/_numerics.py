@@ -86,6 +86,9 @@ def as_float(x) -> jax.Array:
     Integer and float32 inputs are promoted, so no public function ever computes in float32.
     """
     check_x64()
+    if isinstance(x, (float, np.floating)) or (isinstance(x, np.ndarray) and x.dtype.kind == "f"):
+        # a host float: widened on the host (exact), not by a small compiled program per process
+        return jnp.asarray(np.asarray(x, np.float64))
     x = jnp.asarray(x)
     if jnp.issubdtype(x.dtype, jnp.complexfloating):
         return x.astype(jnp.complex128)

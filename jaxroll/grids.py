@@ -65,6 +65,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _compilation_cache
 from .engines.contact_size import dynamic_contact_size, estimate_contact_size
 
 __all__ = ["AutoGrid", "FixedGrid", "PERIOD_FACTOR", "union"]
@@ -453,7 +454,7 @@ class AutoGrid(eqx.Module):
         r = _grid_sizes(material, layer, radius, loads, speeds, geometry)
         if self.cells_per_radius is not None:
             return np.full(r.shape, self.cells_per_radius), r
-        zb = np.asarray(_point_regime_table(material, jnp.asarray(speeds), jnp.asarray(r)))
+        zb = np.asarray(_compilation_cache.call(_point_regime_table, material, jnp.asarray(speeds), jnp.asarray(r)))
         zeta, breadth = np.where(speeds > 0, zb[:, 0], 1.0), np.where(speeds > 0, zb[:, 1], 0.0)
         if geometry == "sphere":
             cells = _rule_cells_array(zeta, breadth, "sphere", SPHERE_ERROR_CELLS, MAX_SPHERE_RULE_CELLS)
@@ -780,8 +781,8 @@ def _rule_cells(zeta, breadth, geometry, ladder, cap):
 def _rule_cells_array(zeta, breadth, geometry, ladder, cap) -> np.ndarray:
     """:func:`_rule_cells` at every ``(zeta[i], breadth[i])`` at once."""
     ladder = np.asarray(ladder)
-    err = np.asarray(_dissipation_error_jit(np.asarray(zeta, float)[:, None], ladder[None, :].astype(float), geometry,
-                                            np.asarray(breadth, float)[:, None]))
+    err = np.asarray(_compilation_cache.call(_dissipation_error_jit, np.asarray(zeta, float)[:, None],
+                                             ladder[None, :].astype(float), geometry, np.asarray(breadth, float)[:, None]))
     fit = (err <= TARGET_ERROR) & (ladder <= cap)[None, :]
     return np.where(fit.any(axis=1), ladder[np.argmax(fit, axis=1)], cap)
 
@@ -819,7 +820,8 @@ def _point_regimes(material, speeds, sizes):
     moving = speeds > 0
     if not moving.any():
         return [(1.0, 0.0)]
-    table = np.asarray(_point_regime_table(material, jnp.asarray(speeds[moving]), jnp.asarray(sizes[moving])))
+    table = np.asarray(_compilation_cache.call(_point_regime_table, material, jnp.asarray(speeds[moving]),
+                                               jnp.asarray(sizes[moving])))
     return [(float(z), float(b)) for z, b in table]
 
 
@@ -868,7 +870,8 @@ def _estimated_sizes(material, layer, radius, loads, geometry):
 
 def _sizes(material, layer, radius, loads, geometry):
     """Estimated contact sizes [m] of every load (host NumPy)."""
-    r = np.asarray(_estimated_sizes(material, layer, jnp.asarray(radius, float), jnp.asarray(loads), geometry))
+    r = np.asarray(_compilation_cache.call(_estimated_sizes, material, layer, jnp.asarray(radius, float),
+                                           jnp.asarray(loads), geometry))
     if not np.all(np.isfinite(r) & (r > 0)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
     return r
@@ -885,8 +888,8 @@ def _grid_sizes(material, layer, radius, loads, speeds, geometry):
     below the relaxed size (:func:`_quantised`), so that the points of a map share a few sizes."""
     loads = np.atleast_1d(np.asarray(loads, float)).ravel()
     speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), loads.shape)
-    r = np.asarray(_counting_table(material, layer, jnp.asarray(radius, float), jnp.asarray(loads),
-                                   jnp.asarray(speeds), geometry))
+    r = np.asarray(_compilation_cache.call(_counting_table, material, layer, jnp.asarray(radius, float),
+                                           jnp.asarray(loads), jnp.asarray(speeds), geometry))
     if not np.all(np.isfinite(r) & (r > 0)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
     return _quantised(r, _sizes(material, layer, radius, loads, geometry))

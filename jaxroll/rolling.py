@@ -6,7 +6,9 @@ the geometry, ``throw`` and the input shapes are the cache key; the physical val
 and layer parameters, radius, loads, speeds, and the grid's cell size and period) are traced
 values of the compiled program. So a second call with new values compiles nothing, and under
 ``jax.jit``, ``jax.vmap`` and ``jax.grad`` the numbers are those of an eager call with the same
-(resolved) method.
+(resolved) method. With concrete inputs and the compilation cache on, a new process runs the
+lowered program that an earlier one stored for the same static setup and shapes
+(:func:`jaxroll._compilation_cache.call`) instead of tracing it again, with the same numbers.
 
 Checks and failures: with concrete inputs (an ordinary call) the input rules are checked on the
 host before anything is compiled (``ValueError``; values allowed but far outside the physical
@@ -27,6 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _compilation_cache
 from ._numerics import any_traced, as_float, check_plausible, check_roller_values, input_checks, roller_inputs
 from .engines.layer import Layer, check_subsonic
 from .engines.stack import Stack, models
@@ -181,7 +184,7 @@ def rolling_resistance(material, layer=None, *, radius, load, speed, geometry="s
     material, layer = models(material, layer)
     method, traced = _prepare(method, material, layer, radius, load, speed, geometry)
     radius, load, speed = as_float(radius), as_float(load), as_float(speed)
-    res = _point(method.dynamic(), material, layer, radius, load, speed, geometry, traced)
+    res = _compilation_cache.call(_point, method.dynamic(), material, layer, radius, load, speed, geometry, traced)
     return _finish(res, bool(throw), "rolling_resistance")
 
 
@@ -205,5 +208,6 @@ def rolling_resistance_grid(material, layer=None, *, radius, loads, speeds, geom
         raise ValueError(f"loads and speeds must be non-empty 1D arrays; got shapes {loads.shape} and {speeds.shape}")
     material, layer = models(material, layer)
     method, traced = _prepare(method, material, layer, radius, loads, speeds, geometry)
-    res = _grid(method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry, traced)
+    res = _compilation_cache.call(_grid, method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry,
+                                  traced)
     return _finish(res, bool(throw), "rolling_resistance_grid")

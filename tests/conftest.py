@@ -11,6 +11,8 @@ inherit the environment:
   fit`` commands, notebook 03's fits) keep LLVM's passes, and so do the programs of tests marked
   ``run_bound`` (:func:`_run_bound`). ``JAXROLL_TEST_XLA_DEFAULT=1``: XLA's defaults everywhere,
   for comparison.
+- jaxroll's stored lowered programs off (``JAXROLL_COMPILATION_CACHE=0``; JAX's own cache
+  below stays on), as their first export costs more than a jit; tests/test_errors.py checks them.
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
   ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
@@ -42,6 +44,11 @@ if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
     # ("Loading XLA:CPU AOT result ... prefer-no-gather", an upstream XLA message): keep them out
     # of the subprocesses' stderr that CLI tests read
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
+    # jaxroll's stored lowered programs off (JAX's cache, set below, stays on: a folder set for
+    # JAX wins): they spare a later process the tracing, but a program's first export and reload
+    # cost more CPU than jit alone (benchmarks/LOG.md), and the tests' programs are rarely met
+    # again in another process. tests/test_errors.py checks the stored programs themselves.
+    os.environ.setdefault("JAXROLL_COMPILATION_CACHE", "0")
     if os.environ.get("PYTEST_XDIST_WORKER") and os.environ.get("JAXROLL_TEST_CACHE_ROOT"):
         # a pytest-xdist worker: its own folder inside the controller's, so that no process reads
         # a program that another one is still writing (jax writes cache files in place)

@@ -156,10 +156,87 @@ def test_second_process_loads_the_compiled_program_from_the_cache(tmp_path):
     assert sorted(p.name for p in cache.rglob("*") if p.is_file()) == files  # nothing compiled anew
 
 
+_TRACES = []
+
+
+@eqx.filter_jit
+def _scaled(x, factor, label):
+    _TRACES.append(label)  # once per trace
+    return {"y": jnp.sin(x) * factor, "total": jnp.sum(jnp.exp(x)) / factor, "n": jnp.asarray(len(label))}
+
+
+def _forget(fn):
+    """Drop this process's loaded programs of ``fn`` (as a new process would start)."""
+    for key in [k for k in _compilation_cache._memo if k[0] is fn]:
+        del _compilation_cache._memo[key]
+
+
+def _same_bits(a, b):
+    la, lb = jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)
+    return jax.tree_util.tree_structure(a) == jax.tree_util.tree_structure(b) and all(
+        u.dtype == v.dtype and u.weak_type == v.weak_type and bool(jnp.all(u == v)) for u, v in zip(la, lb))
+
+
+def test_lowered_program_is_stored_loaded_and_gives_the_same_bits(tmp_path, monkeypatch):
+    """:func:`jaxroll._compilation_cache.call`: the first call stores the lowered program, a
+    "new process" (its memory of loaded programs dropped) runs it without tracing, bit for bit
+    what the function gives; a new static value is a new program; traced callers and the
+    switched-off cache run the function itself."""
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
+    call, x, f = _compilation_cache.call, jnp.linspace(0.1, 1.0, 5), jnp.asarray(3.0)
+    _forget(_scaled)
+    n = len(_TRACES)
+    first = call(_scaled, x, f, "a")
+    assert len(_TRACES) == n + 1 and len(list(tmp_path.glob("_scaled-*.pkl"))) == 1
+    assert _same_bits(first, _scaled(x, f, "a"))
+    _forget(_scaled)
+    n = len(_TRACES)
+    x2, f2 = x + 0.25, jnp.asarray(0.7)
+    assert _same_bits(call(_scaled, x2, f2, "a"), _scaled(x2, f2, "a")) and len(_TRACES) == n  # loaded, not traced
+    assert call(_scaled, x, f, "bb")["n"] == 2 and len(list(tmp_path.glob("_scaled-*.pkl"))) == 2  # static: new key
+    assert call(_scaled, x[:3], f, "a")["y"].shape == (3,) and len(list(tmp_path.glob("_scaled-*.pkl"))) == 3
+    # traced callers take the function itself (grad through it, nothing stored)
+    g = jax.grad(lambda s: call(_scaled, x, s, "a")["total"])(f)
+    assert float(g) == pytest.approx(-float(jnp.sum(jnp.exp(x))) / 9.0, rel=1e-14)  # d(S/f)/df = -S/f^2
+    assert len(list(tmp_path.glob("*.pkl"))) == 3
+    # a static value without an identifying text (a function) is not stored
+    assert call(_scaled, x, f, (print,))["n"] == 1 and len(list(tmp_path.glob("*.pkl"))) == 3
+    # the switch: nothing read or stored
+    monkeypatch.undo()
+    monkeypatch.setenv("JAXROLL_COMPILATION_CACHE", "0")
+    assert _compilation_cache.programs_directory() is None
+    _forget(_scaled)
+    n = len(_TRACES)
+    assert _same_bits(call(_scaled, x, f, "ccc"), _scaled(x, f, "ccc")) and len(_TRACES) == n + 1
+
+
+@pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
+def test_front_door_through_the_stored_program_gives_the_same_bits(tmp_path, monkeypatch):
+    # the point as jr.rolling_resistance runs it with the stored programs on (the suite runs with
+    # them off: tests/conftest.py), stored and then loaded, against the jitted function itself
+    from jaxroll import rolling
+    from jaxroll._numerics import as_float
+
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
+    _forget(rolling._point)
+    stored = _direct(20.0, throw=False)
+    assert list(tmp_path.glob("_point-*.pkl"))
+    _forget(rolling._point)
+    loaded = _direct(20.0, throw=False)
+    method = jr.methods.as_method("direct").dynamic()
+    want = rolling._point(method, SLS, THIN, as_float(R), as_float(20.0), as_float(0.01), "sphere", False)
+    assert _same_bits(stored, want) and _same_bits(loaded, want)
+
+
 def test_import_before_jax_quiets_xla_log_only_with_the_cache_on():
     """``import jaxroll`` before JAX sets TF_CPP_MIN_LOG_LEVEL=3 (XLA's false SIGILL lines on
-    loading cached programs) when the cache is on and the variable unset; JAX itself sets 1."""
-    code = "import sys, os\nif sys.argv[1] == 'jax': import jax\nimport jaxroll\nprint(os.environ['TF_CPP_MIN_LOG_LEVEL'])"
+    loading cached programs) when the cache is on and the variable unset; JAX itself sets 1.
+    The import loads neither SciPy nor the fits, and every public name resolves."""
+    code = ("import sys, os\nif sys.argv[1] == 'jax': import jax\nimport jaxroll\n"
+            "assert 'scipy' not in sys.modules  # imported where used: a stored program needs none of it\n"
+            "assert 'jaxroll.identify' not in sys.modules  # public names of the fits etc. load on first use\n"
+            "assert all(getattr(jaxroll, n) is not None for n in jaxroll.__all__) and callable(jaxroll.sweep)\n"
+            "print(os.environ['TF_CPP_MIN_LOG_LEVEL'])")
     base = {k: v for k, v in os.environ.items() if k not in ("TF_CPP_MIN_LOG_LEVEL", "JAXROLL_COMPILATION_CACHE")}
     base["PYTHONPATH"] = str(ROOT) + os.pathsep + base.get("PYTHONPATH", "")
 

@@ -51,7 +51,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.special as sps
 
 __all__ = [
     "WindowedCompliance",
@@ -69,6 +68,8 @@ __all__ = [
 
 def _alternating_inverse_square(a):
     """``sum_{k>=0} (-1)^k / (a + k)^2`` for ``a > 0`` (numpy, trace-time constant)."""
+    import scipy.special as sps  # here, not at import: a program loaded from the cache needs no SciPy
+
     return 0.25 * (sps.polygamma(1, 0.5 * a) - sps.polygamma(1, 0.5 * (a + 1.0)))
 
 
@@ -164,6 +165,8 @@ def _line_alias_sum(compliance_fn, z, dx, M, dissipation):
     if not dissipation:
         return K, None
     # q Im T S^2 on the explicit images; tail dx sz^2/(2 pi^3) q|q| Im T zeta(3, .)
+    import scipy.special as sps
+
     wt2 = np.concatenate(
         [
             2.0 * np.pi * w_img[:, :-2] * np.sinc(w_img[:, :-2]) ** 2,

@@ -60,7 +60,6 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.special as sps
 
 from .. import contact as _contact
 
@@ -153,6 +152,8 @@ def fourier_rule(window: int, w_max: int) -> FourierRule:
 
 def _int_sin_over_w2(beta, a):
     """``int_a^inf sin(beta w)/w^2 dw`` (NumPy, elementwise in ``beta``; ``a > 0``)."""
+    import scipy.special as sps  # here, not at import: a program loaded from the cache needs no SciPy
+
     b = np.abs(beta)
     si, ci = sps.sici(np.where(b > 0, b * a, 1.0))
     val = np.where(b > 0, np.sin(b * a) / a - b * ci, 0.0)
@@ -161,6 +162,8 @@ def _int_sin_over_w2(beta, a):
 
 def _int_cos_over_w2(beta, a):
     """``int_a^inf cos(beta w)/w^2 dw`` (NumPy, elementwise in ``beta``; ``a > 0``)."""
+    import scipy.special as sps
+
     b = np.abs(beta)
     si, ci = sps.sici(np.where(b > 0, b * a, 1.0))
     return np.where(b > 0, np.cos(b * a) / a - b * (0.5 * np.pi - si), 1.0 / a)

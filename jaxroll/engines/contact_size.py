@@ -40,7 +40,6 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.integrate
 
 from .._numerics import as_float, newton_root, where_safe
 from ..geometry import check_geometry  # noqa: F401 (re-exported)
@@ -81,6 +80,8 @@ def jaffar_coefficients(nu: float = 0.5) -> tuple[float, float]:
     Args:
         nu: Poisson's ratio in ``[0, 0.5]`` (a Python float; static).
     """
+    import scipy.integrate  # here, not at import: a program loaded from the cache needs no SciPy
+
     nu = float(nu)
     if not 0.0 <= nu <= 0.5:
         raise ValueError(f"nu must lie in [0, 0.5]; got {nu}")

@@ -39,7 +39,6 @@ from typing import Callable, NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.special
 
 from .._numerics import as_float, where_safe
 from ..geometry import check_geometry
@@ -163,6 +162,8 @@ def pressure_transform(x, *, model="thick", geometry="sphere") -> jax.Array:
 
 def _transform_np(x, model, geometry):
     """NumPy (scipy Bessel) twin of :func:`pressure_transform`, for quadrature weights."""
+    import scipy.special  # here, not at import: a program loaded from the cache needs no SciPy
+
     shape = _shape(model, geometry)
     x = np.asarray(x, dtype=np.float64)
     with np.errstate(all="ignore"):
