@@ -5,6 +5,7 @@ the gradients a designer needs (``dR_r/dT``, ``dR_r/dH``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import equinox as eqx
 import jax
@@ -397,9 +398,14 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
         return res.value, (res.result, res.contact_radius)
 
     H = jnp.asarray(cover_thickness(layer), float)
-    zero = jax.tree_util.tree_map(jnp.zeros_like, material)
-    tangents = [(jnp.ones_like(T), jnp.zeros(()), zero), (jnp.zeros_like(T), jnp.ones(()), zero)]
-    tangents += [(jnp.zeros_like(T), jnp.zeros(()), d) for d in directions]
+    tangents = [(jnp.ones_like(T), jnp.zeros(())), (jnp.zeros_like(T), jnp.ones(()))]
+    if directions:
+        zero = jax.tree_util.tree_map(jnp.zeros_like, material)
+        tangents = [t + (zero,) for t in tangents] + [(jnp.zeros_like(T), jnp.zeros(()), d) for d in directions]
+        primals = (T, H, material)
+    else:  # no material direction: the material is a constant, its derivatives are not formed
+        primals = (T, H)
+        values = functools.partial(values, mat=material)
     stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *tangents)
-    v, dv, (code, a) = jax.vmap(lambda t: jax.jvp(values, (T, H, material), t, has_aux=True))(stacked)
+    v, dv, (code, a) = jax.vmap(lambda t: jax.jvp(values, primals, t, has_aux=True))(stacked)
     return v[0], code[0], dv[0], dv[1], dv[2:], a[0]

@@ -446,23 +446,26 @@ def _value_by_adjoint(point, args):
     def run(consts, dyn):
         return converted(dyn, *consts)
 
-    @run.defjvp
     def run_jvp(primals, tangents):
-        diff, rest = eqx.partition(primals, eqx.is_inexact_array)
+        leaves, treedef = jax.tree_util.tree_flatten(primals)
+        dots = treedef.flatten_up_to(tangents)
+        # only the inputs with a tangent: constants (quadrature weights, index tables) cost nothing
+        active = [i for i, (x, t) in enumerate(zip(leaves, dots))
+                  if eqx.is_inexact_array(x) and not isinstance(t, jax.custom_derivatives.SymbolicZero)]
 
-        def value(diff):
-            c, d = eqx.combine(diff, rest)
+        def value(xs):
+            c, d = jax.tree_util.tree_unflatten(treedef, [dict(zip(active, xs)).get(i, x) for i, x in enumerate(leaves)])
             out = converted(d, *c)
             return out[0].value, out
 
-        _, vjp, out = jax.vjp(value, diff, has_aux=True)
+        _, vjp, out = jax.vjp(value, [leaves[i] for i in active], has_aux=True)
         (grads,) = vjp(jnp.ones_like(out[0].value))
-        dots = [jnp.real(jnp.sum(g * t)) for g, t in zip(jax.tree_util.tree_leaves(grads),
-                                                        jax.tree_util.tree_leaves(floats(tangents)))]
+        dots = [jnp.real(jnp.sum(g * dots[i])) for g, i in zip(grads, active)]
         zeros = jax.tree_util.tree_map(
             lambda x: jnp.zeros_like(x) if eqx.is_inexact_array(x) else np.zeros(np.shape(x), jax.dtypes.float0), out)
         return out, eqx.tree_at(lambda z: z[0].value, zeros, functools.reduce(jnp.add, dots, jnp.zeros(())))
 
+    run.defjvp(run_jvp, symbolic_zeros=True)
     return run(consts, dyn)
 
 
