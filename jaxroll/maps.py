@@ -355,6 +355,34 @@ def _batch_axes(tree):
     return jax.tree_util.tree_map(lambda x: 0 if np.ndim(x) else None, tree)
 
 
+def _thickness_builder(method, material, layer, H, geometry):
+    """``V -> kernel`` of the full model of ``geometry`` for ``material`` on ``layer`` with the
+    cover thickness ``H`` [m] (``model.kernel_builder``: the layer's speed-independent integrals
+    formed once), whose derivative in ``H`` is formed once: one forward pass with a unit tangent,
+    scaled by each direction's ``dH``. Under ``jax.vmap`` of ``jax.jvp`` (the map's tangent
+    directions, :func:`_map_program`) the layer's integrals then cost one derivative, not one per
+    direction; the numbers are those of the plain builder."""
+    from .methods import _FULL_MODELS
+
+    model, converted = _FULL_MODELS[geometry], []
+
+    def arrays(H):  # the arrays the builder closes over, as a function of H
+        fn, consts = jax.closure_convert(
+            model.kernel_builder(material, with_cover_thickness(layer, H), method.grid), jnp.ones(()))
+        converted.append(fn)
+        return consts
+
+    once = jax.custom_jvp(arrays)
+
+    @once.defjvp
+    def _(primals, tangents):
+        consts, per_unit = jax.jvp(arrays, primals, (jnp.ones_like(primals[0]),))
+        return consts, [d * tangents[0] if jnp.issubdtype(d.dtype, jnp.inexact) else d for d in per_unit]
+
+    consts = once(jnp.asarray(H, float))
+    return lambda V: converted[-1](V, *consts)
+
+
 def _reduced(method, layer) -> bool:
     """Whether the map evaluates the reference material at the reduced speed ``V a_T(T)``: the
     full models on a layer without inertia, where ``G*(q V; T) = G*_ref(q V a_T)`` makes the
@@ -388,7 +416,9 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
         mats, lays, ax = _batched_models(mat, shift, with_cover_thickness(layer, H), T)
         if reduced:  # the reference material at V a_T (see _reduced)
             res = method.evaluate_points(mat, lays, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint)
+                                         geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint,
+                                         builder=None if directions else _thickness_builder(method, mat, layer, H,
+                                                                                            geometry))
         else:
             res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count,
                                          adjoint=adjoint)

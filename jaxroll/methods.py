@@ -362,7 +362,7 @@ class Full(_GridMethod):
         return jax.lax.scan(one_speed, _contact.WarmStart.none(shape), speeds)[1]
 
     def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None, count=None,
-                        adjoint=False):
+                        adjoint=False, builder=None):
         """``R_r`` at ``n`` points (arguments batched or shared as in
         :meth:`AbstractMethod.evaluate_points`), solved one after the other in a ``lax.scan``
         along ``order`` (default: as given; ``count``, a traced integer: only the first
@@ -379,7 +379,8 @@ class Full(_GridMethod):
         other fields carry none), each point's by one reverse-mode pass (one transposed contact
         solve, :func:`_value_by_adjoint`) that every tangent direction shares: forward-mode
         derivatives along ``k`` directions (``jax.vmap`` of ``jax.jvp``) then cost one solve per
-        point instead of ``k``."""
+        point instead of ``k``. ``builder``: the ``V -> kernel`` of the shared material and layer
+        (``model.kernel_builder``), if the caller formed it (:func:`jaxroll.maps._map_program`)."""
         model = _FULL_MODELS[geometry]
         args = (material, layer, R, P, V)
         n = _batch_size(args, axes)
@@ -398,7 +399,9 @@ class Full(_GridMethod):
         ratio = jnp.append(loads[1:] / loads[:-1], 1.0)
 
         # material and layer shared: their speed-independent work once (as in evaluate_grid)
-        shared = model.kernel_builder(material, layer, self.grid) if axes[0] is None and axes[1] is None else None
+        shared = builder
+        if shared is None and axes[0] is None and axes[1] is None:
+            shared = model.kernel_builder(material, layer, self.grid)
 
         def point(start, m, l, r, p, v, size):
             kernel = (shared or model.kernel_builder(m, l, self.grid))(v)
