@@ -431,15 +431,16 @@ class Full(_GridMethod):
 def _value_by_adjoint(point, args):
     """``point(*args)`` (a :class:`RollingResult` and data) whose only derivative is that of the
     result's ``value``, by reverse mode: ``jax.vjp`` of ``value`` w.r.t. every floating-point
-    input (the arguments and the arrays ``point`` closes over, e.g. a shared kernel factor: each
-    point's contact solve differentiated by one transposed solve), contracted with the incoming
-    tangents. Under ``jax.vmap`` of ``jax.jvp`` the pass depends on the primals only, so it runs
-    once for all the tangent directions. The other outputs carry zero derivatives."""
+    input that carries a tangent (the arguments and the arrays ``point`` closes over, e.g. a
+    shared kernel factor; inputs whose tangent is a symbolic zero, such as quadrature tables, form
+    no cotangent: each point's contact solve differentiated by one transposed solve), contracted
+    with the incoming tangents. Under ``jax.vmap`` of ``jax.jvp`` the pass depends on the
+    primals only, so it runs once for all the tangent directions. The other outputs carry zero
+    derivatives."""
     dyn, static = eqx.partition(args, eqx.is_array)  # Python scalars (a layer's rho = 0) stay static
     # every value the point reads, its arguments and what it closes over, as explicit inputs
     closed, shapes = jax.make_jaxpr(lambda d: point(*eqx.combine(d, static)), return_shape=True)(dyn)
     consts = list(closed.consts)
-    floats = lambda tree: eqx.filter(tree, eqx.is_inexact_array)  # noqa: E731
 
     def converted(d, *c):
         out = jax.core.eval_jaxpr(closed.jaxpr, c, *jax.tree_util.tree_leaves(d))
@@ -451,19 +452,20 @@ def _value_by_adjoint(point, args):
 
     def run_jvp(primals, tangents):
         leaves, treedef = jax.tree_util.tree_flatten(primals)
-        dots = treedef.flatten_up_to(tangents)
+        tangent = treedef.flatten_up_to(tangents)
         # only the inputs with a tangent: constants (quadrature weights, index tables) cost nothing
-        active = [i for i, (x, t) in enumerate(zip(leaves, dots))
+        active = [i for i, (x, t) in enumerate(zip(leaves, tangent))
                   if eqx.is_inexact_array(x) and not isinstance(t, jax.custom_derivatives.SymbolicZero)]
 
         def value(xs):
-            c, d = jax.tree_util.tree_unflatten(treedef, [dict(zip(active, xs)).get(i, x) for i, x in enumerate(leaves)])
+            swapped = dict(zip(active, xs))
+            c, d = jax.tree_util.tree_unflatten(treedef, [swapped.get(i, x) for i, x in enumerate(leaves)])
             out = converted(d, *c)
             return out[0].value, out
 
         _, vjp, out = jax.vjp(value, [leaves[i] for i in active], has_aux=True)
         (grads,) = vjp(jnp.ones_like(out[0].value))
-        dots = [jnp.real(jnp.sum(g * dots[i])) for g, i in zip(grads, active)]
+        dots = [jnp.real(jnp.sum(g * tangent[i])) for g, i in zip(grads, active)]
         zeros = jax.tree_util.tree_map(
             lambda x: jnp.zeros_like(x) if eqx.is_inexact_array(x) else np.zeros(np.shape(x), jax.dtypes.float0), out)
         return out, eqx.tree_at(lambda z: z[0].value, zeros, functools.reduce(jnp.add, dots, jnp.zeros(())))
