@@ -1,6 +1,6 @@
 """Batched full 3D model: cost per point of every batched entry point against the warm-started table.
 
-    python benchmarks/bench_batched.py [--quick] [--repeat 5]
+    python benchmarks/bench_batched.py [--quick] [--repeat 5] [--only reference|map|vmap]
 
 Rows (the paper's sphere: SLS G0 = 3 MPa, tau = 0.25 s, f = 1, R = 2 cm, H = 30 mm, infinite
 layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
@@ -120,6 +120,8 @@ def reference_rows(args, rows):
 
     VV, PP = (x.ravel() for x in jnp.meshgrid(speeds, loads, indexing="ij"))
     base = (3e6, 0.03, loads, speeds)
+    if args.only == "vmap":
+        return _vmap_rows(args, rows, n, (table, base), single, (vmap_H, points_H, Hs))
     t_c, c_table = _compile(table, *base)
     s_c, c_single = _compile(single, 3e6, 0.03, 100.0, 0.01)
     p_c, c_points = _compile(points, 3e6, 0.03, PP, VV)
@@ -258,11 +260,35 @@ def _vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, method):
     return (lambda: compiled(*args)), comp
 
 
+def _vmap_rows(args, rows, n, table, single, batched):
+    """``--only vmap``: the table, the single point and the two batched-thickness rows of
+    :func:`reference_rows`, alternated in one loop."""
+    (table, base), (vmap_H, points_H, Hs) = table, batched
+    t_c, c_table = _compile(table, *base)
+    s_c, c_single = _compile(single, 3e6, 0.03, 100.0, 0.01)
+    v_c, c_vmap = _compile(vmap_H, Hs)
+    h_c, c_pH = _compile(points_H, Hs)
+    t_table, t_single, t_vmap, t_pH = _alternate([(t_c, base), (s_c, (3e6, 0.03, 100.0, 0.01)), (v_c, (Hs,)),
+                                                  (h_c, (Hs,))], args.repeat)
+    check_H = float(jnp.max(jnp.abs(h_c(Hs) / v_c(Hs) - 1)))
+    rows += [
+        ("table (warm-started, baseline)", t_table / n, c_table, 1.0, f"{n} points"),
+        ("single point (front door)", t_single, c_single, t_single * n / t_table, "100 N, 0.01 m/s, cold start"),
+        ("jit(vmap(front door)) H x20", t_vmap / 20, c_vmap, t_vmap / 20 * n / t_table,
+         f"20 thicknesses 5..50 mm, 100 N, 0.01 m/s: {t_vmap:.3f} s"),
+        ("points, layer batched, H x20", t_pH / 20, c_pH, t_pH / 20 * n / t_table,
+         f"the same 20 points: {t_pH:.3f} s; max |rel diff| to the vmap {check_H:.1e}"),
+    ]
+    return t_table / n
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="coarse grid, 6x15 table, 7x7 map")
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--only", choices=["reference", "map"], help="only the reference-case rows or the map rows")
+    ap.add_argument("--only", choices=["reference", "map", "vmap"],
+                    help="only the reference-case rows or the map rows; vmap: of the reference rows only the table, "
+                    "the single point and the two rows over 20 thicknesses")
     ap.add_argument("--record", action="store_true",
                     help="store the rows in benchmarks/numbers.json (see --section)")
     ap.add_argument("--section", help="numbers.json section to record into (default: batched[_quick][_gpu]_"
@@ -276,7 +302,7 @@ def main():
           f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
     load_start = round(os.getloadavg()[0], 1)
     rows = []
-    if args.only in (None, "reference"):
+    if args.only in (None, "reference", "vmap"):
         reference_rows(args, rows)
     if args.only in (None, "map"):
         map_rows(args, rows)

@@ -293,3 +293,32 @@ def test_layer_built_under_jit_keeps_its_literal_density():
     assert seen == [True, False]
     with pytest.raises(ValueError, match="non-negative density"):
         jr.Layer(5e-3, rho=-1.0)
+
+
+@pytest.mark.parametrize("nu", [0.5, 0.3, 0.0])
+def test_static_compliance_is_the_halfspace_beyond_the_asymptote_cut(nu):
+    """The 3D infinite-layer factor drops the layer's correction where ``qH >= HALFSPACE_QH``
+    (:func:`jaxroll.engines.layer.halfspace_asymptote`). There the exact ``T_1`` is the
+    half-space's ``(1 - nu)/q`` to < 1e-14 relative: the 50-digit closed form ``F(a)`` for
+    ``nu = 0.5``, the 6x6 expm of the compressible layer otherwise (independent oracles); and so
+    is the closed form in float64 up to rounding (a few 1e-16) from the cut to ``qH = 2e4``."""
+    import mpmath as mp
+
+    from _oracles import transfer_expm_compressible
+
+    H = 0.01
+    t_inf, q_cut = jr.engines.layer.halfspace_asymptote(jr.Layer(H, nu=nu))
+    assert t_inf == 1.0 - nu and float(q_cut) == jr.engines.layer.HALFSPACE_QH / H
+    a = jr.engines.layer.HALFSPACE_QH
+    if nu == 0.5:
+        with mp.workdps(50):
+            exact = float((mp.sinh(2 * a) - 2 * a) / (mp.cosh(2 * a) + 2 * a * a + 1))  # F(a) = T_1 2q
+    else:
+        G = 2e6 * np.exp(-0.2j)
+        exact = (transfer_expm_compressible(0.6 * a / H, 0.8 * a / H, H, G, nu) * G * (a / H) / t_inf).real
+    assert abs(exact - 1.0) < 1e-14
+    q = float(q_cut) * jnp.logspace(0, 3, 31)
+    t1 = jr.engines.layer.static_compliance(jr.Layer(H, nu=nu), q)
+    np.testing.assert_allclose(np.asarray(t1 * q / t_inf), 1.0, rtol=0, atol=1e-14)
+    # a half-space: no cut (its T_1 is the asymptote at every q)
+    assert float(jr.engines.layer.halfspace_asymptote(jr.Layer(jnp.inf, nu=nu))[1]) == 0.0

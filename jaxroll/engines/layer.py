@@ -57,6 +57,7 @@ __all__ = [
     "Layer",
     "surface_compliance",
     "static_compliance",
+    "halfspace_asymptote",
     "is_quasistatic",
     "single_layer",
     "shear_wave_speed",
@@ -316,6 +317,23 @@ def _static_t1_jvp(nu, primals, tangents):
     finite = jnp.isfinite(H)
     jac_H = jnp.where(finite, (out + q * jac_q) / where_safe(finite, H, 1.0), 0.0)
     return out, jac_q * dq + jac_H * dH
+
+
+#: ``q H`` above which :func:`static_compliance` equals its half-space asymptote ``(1 - nu)/q`` to
+#: ``< 1e-14`` relative: the layer's correction is ``2 (2a^2 + 2a + 1) e^{-2a}`` relative
+#: (incompressible, ``a = qH``) and ``~(4a^2 + kappa^2 + 1) e^{-2a}/kappa`` (compressible,
+#: ``kappa = 3 - 4 nu >= 1``), 7e-15 at ``a = 20`` (tests/test_layer.py).
+HALFSPACE_QH = 20.0
+
+
+def halfspace_asymptote(layer: Layer):
+    """``(t_inf, q_cut)``: :func:`static_compliance` is ``t_inf/q`` [m] (``t_inf = 1 - nu``, the
+    half-space's) to ``< 1e-14`` relative for ``q >= q_cut = HALFSPACE_QH/H`` [rad/m] (0 for a
+    half-space, whose compliance is ``t_inf/q`` at every ``q``). ``q_cut`` carries no derivative:
+    it only says where the layer's correction is negligible."""
+    H = jax.lax.stop_gradient(as_float(layer.H))
+    finite = jnp.isfinite(H)
+    return 1.0 - float(layer.nu), jnp.where(finite, HALFSPACE_QH / where_safe(finite, H, 1.0), 0.0)
 
 
 def single_layer(layer) -> Layer:

@@ -62,7 +62,7 @@ from .. import contact as _contact
 from .._numerics import as_float, where_safe
 from .contact_size import estimate_contact_size
 from ..grids import FixedGrid, full_model_error, full_model_value, regime
-from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
+from .layer import Layer, halfspace_asymptote, is_quasistatic, static_compliance, surface_compliance
 from ..materials.material import complex_modulus, glassy_modulus
 from ..result import REGIMES, RESULTS, GridSolution, RollingResult, first_failure, full_model_result, merge_results
 
@@ -200,9 +200,11 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
 
 def _infinite_layer_factor(layer, grid):
     """Speed-independent ``y`` integrals ``(A, B)`` of ``T_1 S_y`` and ``T_1 S_y^2`` on an infinite
-    layer (:func:`jaxroll.engines.aperiodic.surface_factor_pair`: ``T_1`` evaluated once per node)."""
-    t1 = _radial(lambda q: static_compliance(layer, q))
-    return _aperiodic.surface_factor_pair(t1, grid.spacing, grid.window)
+    layer (:func:`jaxroll.engines.aperiodic.layer_factor_pair`: the half-space part a constant of the
+    window, the layer's correction summed where ``qH < 20`` only)."""
+    t_inf, q_cut = halfspace_asymptote(layer)
+    return _aperiodic.layer_factor_pair(lambda q: static_compliance(layer, q), t_inf, q_cut, grid.spacing,
+                                        grid.window)
 
 
 def _infinite_kernel_builder(material, layer, grid: FixedGrid):
