@@ -5,6 +5,7 @@ the gradients a designer needs (``dR_r/dT``, ``dR_r/dH``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import equinox as eqx
 import jax
@@ -354,6 +355,34 @@ def _batch_axes(tree):
     return jax.tree_util.tree_map(lambda x: 0 if np.ndim(x) else None, tree)
 
 
+def _thickness_builder(method, material, layer, H, geometry):
+    """``V -> kernel`` of the full model of ``geometry`` for ``material`` on ``layer`` with the
+    cover thickness ``H`` [m] (``model.kernel_builder``: the layer's speed-independent integrals
+    formed once), whose derivative in ``H`` is formed once: one forward pass with a unit tangent,
+    scaled by each direction's ``dH``. Under ``jax.vmap`` of ``jax.jvp`` (the map's tangent
+    directions, :func:`_map_program`) the layer's integrals then cost one derivative, not one per
+    direction; the numbers are those of the plain builder."""
+    from .methods import _FULL_MODELS
+
+    model, converted = _FULL_MODELS[geometry], []
+
+    def arrays(H):  # the arrays the builder closes over, as a function of H
+        fn, consts = jax.closure_convert(
+            model.kernel_builder(material, with_cover_thickness(layer, H), method.grid), jnp.ones(()))
+        converted.append(fn)
+        return consts
+
+    once = jax.custom_jvp(arrays)
+
+    @once.defjvp
+    def _(primals, tangents):
+        consts, per_unit = jax.jvp(arrays, primals, (jnp.ones_like(primals[0]),))
+        return consts, [d * tangents[0] if jnp.issubdtype(d.dtype, jnp.inexact) else d for d in per_unit]
+
+    consts = once(jnp.asarray(H, float))
+    return lambda V: converted[-1](V, *consts)
+
+
 def _reduced(method, layer) -> bool:
     """Whether the map evaluates the reference material at the reduced speed ``V a_T(T)``: the
     full models on a layer without inertia, where ``G*(q V; T) = G*_ref(q V a_T)`` makes the
@@ -387,7 +416,9 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
         mats, lays, ax = _batched_models(mat, shift, with_cover_thickness(layer, H), T)
         if reduced:  # the reference material at V a_T (see _reduced)
             res = method.evaluate_points(mat, lays, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint)
+                                         geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint,
+                                         builder=None if directions else _thickness_builder(method, mat, layer, H,
+                                                                                            geometry))
         else:
             res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count,
                                          adjoint=adjoint)
@@ -397,9 +428,14 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
         return res.value, (res.result, res.contact_radius)
 
     H = jnp.asarray(cover_thickness(layer), float)
-    zero = jax.tree_util.tree_map(jnp.zeros_like, material)
-    tangents = [(jnp.ones_like(T), jnp.zeros(()), zero), (jnp.zeros_like(T), jnp.ones(()), zero)]
-    tangents += [(jnp.zeros_like(T), jnp.zeros(()), d) for d in directions]
+    tangents = [(jnp.ones_like(T), jnp.zeros(())), (jnp.zeros_like(T), jnp.ones(()))]
+    if directions:
+        zero = jax.tree_util.tree_map(jnp.zeros_like, material)
+        tangents = [t + (zero,) for t in tangents] + [(jnp.zeros_like(T), jnp.zeros(()), d) for d in directions]
+        primals = (T, H, material)
+    else:  # no material direction: the material is a constant, its derivatives are not formed
+        primals = (T, H)
+        values = functools.partial(values, mat=material)
     stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *tangents)
-    v, dv, (code, a) = jax.vmap(lambda t: jax.jvp(values, (T, H, material), t, has_aux=True))(stacked)
+    v, dv, (code, a) = jax.vmap(lambda t: jax.jvp(values, primals, t, has_aux=True))(stacked)
     return v[0], code[0], dv[0], dv[1], dv[2:], a[0]

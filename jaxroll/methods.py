@@ -363,7 +363,7 @@ class Full(_GridMethod):
         return jax.lax.scan(one_speed, _contact.WarmStart.none(shape), speeds)[1]
 
     def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None, count=None,
-                        adjoint=False):
+                        adjoint=False, builder=None):
         """``R_r`` at ``n`` points (arguments batched or shared as in
         :meth:`AbstractMethod.evaluate_points`), solved one after the other in a ``lax.scan``
         along ``order`` (default: as given; ``count``, a traced integer: only the first
@@ -380,7 +380,8 @@ class Full(_GridMethod):
         other fields carry none), each point's by one reverse-mode pass (one transposed contact
         solve, :func:`_value_by_adjoint`) that every tangent direction shares: forward-mode
         derivatives along ``k`` directions (``jax.vmap`` of ``jax.jvp``) then cost one solve per
-        point instead of ``k``."""
+        point instead of ``k``. ``builder``: the ``V -> kernel`` of the shared material and layer
+        (``model.kernel_builder``), if the caller formed it (:func:`jaxroll.maps._map_program`)."""
         model = _FULL_MODELS[geometry]
         args = (material, layer, R, P, V)
         n = _batch_size(args, axes)
@@ -399,7 +400,9 @@ class Full(_GridMethod):
         ratio = jnp.append(loads[1:] / loads[:-1], 1.0)
 
         # material and layer shared: their speed-independent work once (as in evaluate_grid)
-        shared = model.kernel_builder(material, layer, self.grid) if axes[0] is None and axes[1] is None else None
+        shared = builder
+        if shared is None and axes[0] is None and axes[1] is None:
+            shared = model.kernel_builder(material, layer, self.grid)
 
         def point(start, m, l, r, p, v, size):
             kernel = (shared or model.kernel_builder(m, l, self.grid))(v)
@@ -429,15 +432,16 @@ class Full(_GridMethod):
 def _value_by_adjoint(point, args):
     """``point(*args)`` (a :class:`RollingResult` and data) whose only derivative is that of the
     result's ``value``, by reverse mode: ``jax.vjp`` of ``value`` w.r.t. every floating-point
-    input (the arguments and the arrays ``point`` closes over, e.g. a shared kernel factor: each
-    point's contact solve differentiated by one transposed solve), contracted with the incoming
-    tangents. Under ``jax.vmap`` of ``jax.jvp`` the pass depends on the primals only, so it runs
-    once for all the tangent directions. The other outputs carry zero derivatives."""
+    input that carries a tangent (the arguments and the arrays ``point`` closes over, e.g. a
+    shared kernel factor; inputs whose tangent is a symbolic zero, such as quadrature tables, form
+    no cotangent: each point's contact solve differentiated by one transposed solve), contracted
+    with the incoming tangents. Under ``jax.vmap`` of ``jax.jvp`` the pass depends on the
+    primals only, so it runs once for all the tangent directions. The other outputs carry zero
+    derivatives."""
     dyn, static = eqx.partition(args, eqx.is_array)  # Python scalars (a layer's rho = 0) stay static
     # every value the point reads, its arguments and what it closes over, as explicit inputs
     closed, shapes = jax.make_jaxpr(lambda d: point(*eqx.combine(d, static)), return_shape=True)(dyn)
     consts = list(closed.consts)
-    floats = lambda tree: eqx.filter(tree, eqx.is_inexact_array)  # noqa: E731
 
     def converted(d, *c):
         out = jax.core.eval_jaxpr(closed.jaxpr, c, *jax.tree_util.tree_leaves(d))
@@ -447,23 +451,27 @@ def _value_by_adjoint(point, args):
     def run(consts, dyn):
         return converted(dyn, *consts)
 
-    @run.defjvp
     def run_jvp(primals, tangents):
-        diff, rest = eqx.partition(primals, eqx.is_inexact_array)
+        leaves, treedef = jax.tree_util.tree_flatten(primals)
+        tangent = treedef.flatten_up_to(tangents)
+        # only the inputs with a tangent: constants (quadrature weights, index tables) cost nothing
+        active = [i for i, (x, t) in enumerate(zip(leaves, tangent))
+                  if eqx.is_inexact_array(x) and not isinstance(t, jax.custom_derivatives.SymbolicZero)]
 
-        def value(diff):
-            c, d = eqx.combine(diff, rest)
+        def value(xs):
+            swapped = dict(zip(active, xs))
+            c, d = jax.tree_util.tree_unflatten(treedef, [swapped.get(i, x) for i, x in enumerate(leaves)])
             out = converted(d, *c)
             return out[0].value, out
 
-        _, vjp, out = jax.vjp(value, diff, has_aux=True)
+        _, vjp, out = jax.vjp(value, [leaves[i] for i in active], has_aux=True)
         (grads,) = vjp(jnp.ones_like(out[0].value))
-        dots = [jnp.real(jnp.sum(g * t)) for g, t in zip(jax.tree_util.tree_leaves(grads),
-                                                        jax.tree_util.tree_leaves(floats(tangents)))]
+        dots = [jnp.real(jnp.sum(g * tangent[i])) for g, i in zip(grads, active)]
         zeros = jax.tree_util.tree_map(
             lambda x: jnp.zeros_like(x) if eqx.is_inexact_array(x) else np.zeros(np.shape(x), jax.dtypes.float0), out)
         return out, eqx.tree_at(lambda z: z[0].value, zeros, functools.reduce(jnp.add, dots, jnp.zeros(())))
 
+    run.defjvp(run_jvp, symbolic_zeros=True)
     return run(consts, dyn)
 
 
