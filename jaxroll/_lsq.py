@@ -53,7 +53,10 @@ def gauss_newton_distance(r, J, noise=None) -> float:
     cost reduction of the full Gauss-Newton step (``P_J`` the projection onto the range of
     ``J``) and ``s^2`` the noise variance (``noise``; default the reduced chi^2
     ``|r|^2/(n - k)``). It is the step's length in the metric of the covariance
-    ``s^2 (J^T J)^-1``, so it bounds every parameter's distance in its own standard errors."""
+    ``s^2 (J^T J)^-1``, so it bounds every parameter's part of the step in its own standard
+    errors. It is the linearised model's distance: along a curved, nearly flat valley the true
+    distance to the optimum differed from it several-fold, either way (benchmarks/LOG.md, "The
+    sphere fit's evaluation count")."""
     r, J = np.asarray(r, float), np.asarray(J, float)
     step = np.linalg.lstsq(J, r, rcond=None)[0]
     projected = J @ step
@@ -79,9 +82,9 @@ def least_squares(residuals, jacobian, x0, *, method="trf", rtol=1e-10, max_eval
             columns, updated during the iteration).
         stop: ``None`` or a stopping rule ``(x, r, J) -> bool`` checked at the start and at
             every accepted point (where the driver asks for the Jacobian): where it holds, the
-            iteration ends there (``converged``), e.g. once :func:`gauss_newton_distance` says
-            that the parameters are within a small fraction of their standard errors of the
-            optimum, where ``rtol`` would still ask for steps far below their uncertainty.
+            iteration ends there (``converged``), e.g. where a coarse answer is enough
+            (:func:`jaxroll.fit_material` stops a run on a grid that its point has outgrown once
+            :func:`gauss_newton_distance` is small).
 
     The iteration runs in the displacement ``x - x0``: scipy sizes its first trust region from
     the norm of the starting point, which would make the first step depend on the origin of
