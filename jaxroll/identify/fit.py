@@ -648,8 +648,10 @@ MAX_REGRIDS = 3
 #: if the grid resolved there has moved by more than :data:`REGRID_FACTOR`: the run on that grid
 #: takes over, so this one only had to bring the parameters into the envelope of the grid their
 #: optimum needs, not to the optimum on its own grid (the sphere's cell size goes about as
-#: G0^-1/3, and G0 has a standard error of ~25 % along the G0-tau-f valley of rolling data).
-REGRID_WITHIN = 0.25
+#: G0^-1/3, and G0 has a standard error of ~25 % along the G0-tau-f valley of rolling data). On
+#: the 60-point sphere benchmark 0.5 instead of 0.25 took 15 evaluations instead of 23, to a cost
+#: 7e-5 lower (benchmarks/LOG.md, "The sphere fit's evaluation count").
+REGRID_WITHIN = 0.5
 
 
 #: Rungs of the fit's window ladder per octave: the window's half-width in cells is rounded up to
