@@ -12,7 +12,7 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["Solution", "Z95", "least_squares"]
+__all__ = ["Solution", "Z95", "gauss_newton_distance", "least_squares"]
 
 Z95 = 1.959963984540054  # the two-sided 95 % quantile of the standard normal distribution
 
@@ -39,8 +39,33 @@ class Solution:
     message: str
 
 
+class _Stop(Exception):
+    """Raised inside the driver at a point where the caller's stopping rule holds."""
+
+    def __init__(self, x, r, J):
+        super().__init__()
+        self.x, self.r, self.J = x, r, J
+
+
+def gauss_newton_distance(r, J, noise=None) -> float:
+    """Distance from ``x`` to the minimiser of the Gauss-Newton model of ``0.5 |r|^2`` at ``x``
+    in standard errors of the parameters: ``sqrt(2 delta / s^2)``, ``delta = 0.5 |P_J r|^2`` the
+    cost reduction of the full Gauss-Newton step (``P_J`` the projection onto the range of
+    ``J``) and ``s^2`` the noise variance (``noise``; default the reduced chi^2
+    ``|r|^2/(n - k)``). It is the step's length in the metric of the covariance
+    ``s^2 (J^T J)^-1``, so it bounds every parameter's part of the step in its own standard
+    errors. It is the linearised model's distance: along a curved, nearly flat valley the true
+    distance to the optimum differed from it several-fold, either way (benchmarks/LOG.md, "The
+    sphere fit's evaluation count")."""
+    r, J = np.asarray(r, float), np.asarray(J, float)
+    step = np.linalg.lstsq(J, r, rcond=None)[0]
+    projected = J @ step
+    s2 = float(r @ r) / max(r.size - J.shape[1], 1) if noise is None else float(noise)
+    return float(np.sqrt(max(float(projected @ projected), 0.0) / max(s2, 1e-300)))
+
+
 def least_squares(residuals, jacobian, x0, *, method="trf", rtol=1e-10, max_evaluations=500, bounds=None,
-                  x_scale=1.0) -> Solution:
+                  x_scale=1.0, stop=None) -> Solution:
     """Minimise ``0.5 |r(x)|^2`` from ``x0``.
 
     Args:
@@ -55,6 +80,11 @@ def least_squares(residuals, jacobian, x0, *, method="trf", rtol=1e-10, max_eval
         bounds: ``(lower, upper)`` arrays or scalars, or None.
         x_scale: characteristic scale of each variable, or ``"jac"`` (from the Jacobian's
             columns, updated during the iteration).
+        stop: ``None`` or a stopping rule ``(x, r, J) -> bool`` checked at the start and at
+            every accepted point (where the driver asks for the Jacobian): where it holds, the
+            iteration ends there (``converged``), e.g. where a coarse answer is enough
+            (:func:`jaxroll.fit_material` stops a run on a grid that its point has outgrown once
+            :func:`gauss_newton_distance` is small).
 
     The iteration runs in the displacement ``x - x0``: scipy sizes its first trust region from
     the norm of the starting point, which would make the first step depend on the origin of
@@ -67,9 +97,26 @@ def least_squares(residuals, jacobian, x0, *, method="trf", rtol=1e-10, max_eval
         raise ValueError(f"method must be 'trf' or 'lm'; got {method!r}")
     x0 = np.asarray(x0, float)
     lo, hi = (-np.inf, np.inf) if bounds is None else bounds
-    sol = scipy_least_squares(lambda d: np.asarray(residuals(x0 + d), float),
-                              np.zeros_like(x0), jac=lambda d: np.asarray(jacobian(x0 + d), float),
-                              bounds=(np.asarray(lo, float) - x0, np.asarray(hi, float) - x0), method=method,
-                              ftol=rtol, xtol=rtol, gtol=rtol, max_nfev=int(max_evaluations), x_scale=x_scale)
+    latest, count = {}, [0]
+
+    def fun(d):
+        count[0] += 1
+        latest.update(d=np.array(d), r=np.asarray(residuals(x0 + d), float))
+        return latest["r"]
+
+    def jac(d):  # scipy asks for the Jacobian at the start and at accepted points, after their residuals
+        J = np.asarray(jacobian(x0 + d), float)
+        if stop is not None and np.array_equal(latest.get("d"), d) and np.all(np.isfinite(latest["r"])):
+            if stop(x0 + d, latest["r"], J):
+                raise _Stop(x0 + d, latest["r"], J)
+        return J
+
+    try:
+        sol = scipy_least_squares(fun, np.zeros_like(x0), jac=jac,
+                                  bounds=(np.asarray(lo, float) - x0, np.asarray(hi, float) - x0), method=method,
+                                  ftol=rtol, xtol=rtol, gtol=rtol, max_nfev=int(max_evaluations), x_scale=x_scale)
+    except _Stop as end:
+        return Solution(x=end.x, residuals=end.r, jacobian=end.J, cost=0.5 * float(end.r @ end.r), converged=True,
+                        evaluations=count[0], message="the caller's stopping rule holds")
     return Solution(x=x0 + sol.x, residuals=np.asarray(sol.fun), jacobian=np.asarray(sol.jac), cost=float(sol.cost),
                     converged=bool(sol.status > 0), evaluations=int(sol.nfev), message=str(sol.message))

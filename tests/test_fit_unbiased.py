@@ -171,6 +171,41 @@ def test_profile_endpoints_match_the_exact_likelihood_ratio_interval():
     assert high[1] == pytest.approx(b + Z95 * sd_b, abs=PROFILE_ROOT_TOL * sd_b)
 
 
+def test_the_fit_stops_within_its_distance_of_the_optimum_in_standard_errors():
+    """``least_squares(stop=...)`` with the default fit's stopping rule: on the straight line of the
+    profile test (``c = exp(u0)``, ``b = u1``, sigma known) the Gauss-Newton distance is exact
+    where the model is linear (``b`` alone: ``|b - b_hat| / sd_b``), and a run stopped within 0.05
+    standard errors ends within that of the exact least-squares optimum (Mahalanobis distance in
+    the exact covariance; the step's curvature in ``u0`` adds ~1e-3) in fewer residual
+    evaluations than the run to ``rtol`` 1e-12."""
+    from jaxroll._lsq import gauss_newton_distance, least_squares
+
+    x, s = np.linspace(-1.0, 1.0, 12), 0.3
+    y = 1.0 + 0.5 * x + s * np.random.default_rng(0).standard_normal(x.size)
+    A = np.stack([np.ones_like(x), x], axis=1)
+    best, cov = np.linalg.lstsq(A, y, rcond=None)[0], s**2 * np.linalg.inv(A.T @ A)
+
+    def residuals(u):
+        return (np.exp(u[0]) + u[1] * x - y) / s
+
+    def jacobian(u):
+        return np.stack([np.exp(u[0]) * np.ones_like(x), x], axis=1) / s
+
+    def distance(u):  # Mahalanobis distance of (c, b) from the exact optimum
+        d = np.array([np.exp(u[0]), u[1]]) - best
+        return float(np.sqrt(d @ np.linalg.solve(cov, d)))
+
+    u = np.array([np.log(best[0]), best[1] + 0.7 * np.sqrt(cov[1, 1])])
+    assert gauss_newton_distance(residuals(u), jacobian(u), 1.0) == pytest.approx(0.7, rel=1e-9)
+    start = np.array([np.log(3.0), -2.0])
+    tight = least_squares(residuals, jacobian, start, rtol=1e-12)
+    near = least_squares(residuals, jacobian, start, rtol=1e-12,
+                         stop=lambda u, r, J: gauss_newton_distance(r, J, 1.0) <= 0.05)
+    assert near.converged and "stopping rule" in near.message
+    assert distance(tight.x) < 1e-6 and 1e-6 < distance(near.x) < 0.05 * 1.05
+    assert near.evaluations < tight.evaluations
+
+
 def _coverage(geometry, n):
     """Per parameter, how many of ``n`` noise draws' 95 % intervals hold the truth, and the lower
     0.5 % quantile of Binomial(n, 0.95) (the draws are the independent trials: the three
@@ -210,8 +245,9 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     """Issue 31.3: the fit's grid is re-resolved when the fitted contact leaves the envelope it
     was sized for; a grid of the same class (same cells per half-width, the window on the
     ladder) differs only in the cell size, a traced value of the compiled residual and
-    Jacobian, so the refit compiles nothing. Here the grids resolved at G0 = 2.7 and 3.3 MPa
-    over the reduced set (the second one's cells 10 % smaller: a0 ~ G0^-1/2)."""
+    Jacobian, so the refit compiles nothing; nor, from the persistent compilation cache, does a
+    later process (the program holds no host callback). Here the grids resolved at G0 = 2.7 and
+    3.3 MPa over the reduced set (the second one's cells 10 % smaller: a0 ~ G0^-1/2)."""
     from jaxroll.identify.fit import _data_arrays, _Params, _Problem, _residuals_and_jacobian_jit
 
     data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
@@ -235,3 +271,6 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     # sigma = 2 % of R_r: 1 % is 0.5)
     r2 = np.asarray(out[0][0])
     assert 0 < np.max(np.abs(r2 - r1)) < 0.5
+    # no host callback (on a layer without inertia the input rules hold by construction), so
+    # JAX's persistent compilation cache keeps the program for the next process
+    assert "callback" not in _residuals_and_jacobian_jit.lower(lp, model1, arrays, p1).as_text()

@@ -35,6 +35,14 @@ _ALPHAS = 0.5 ** np.arange(10.0)
 #: forcing term is ``min(max |F|, this)``, ``F`` the scaled soft-min residual.
 NEWTON_FORCING_MAX = 1e-2
 
+#: Relative residual of the derivatives' linear solves (tangent, or adjoint in reverse mode) of
+#: :func:`smoothed_solve`. A derivative's relative error is of this order times the system's
+#: conditioning: on the 60-point sphere fit benchmark (65-cell windows, kappa and 2 kappa) its
+#: Jacobian moved by 4e-9 relative against solves at 1e-13 (the former ``1e-3 tol``), and one
+#: residual-and-Jacobian evaluation took 9 % less time (1e-6: 3e-7 and 12 % less;
+#: benchmarks/LOG.md, "The sphere fit's evaluation count").
+TANGENT_RTOL = 1e-8
+
 
 def _residual(system: ContactSystem, x, c0_ratio, eps):
     """Soft-min residual ``-eps log(exp(-a/eps) + exp(-g/eps))`` (``a = c0 p / g_s``) with the last
@@ -137,8 +145,8 @@ def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol,
     def tangent_solve(g, y):
         return jax.lax.custom_linear_solve(
             mv, y,
-            solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(False), tol * 1e-3, robust)[0],
-            transpose_solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(True), tol * 1e-3, robust)[0],
+            solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(False), TANGENT_RTOL, robust)[0],
+            transpose_solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(True), TANGENT_RTOL, robust)[0],
         )
 
     x = jax.lax.custom_root(lambda v: _residual(system, v, c0_ratio, eps / system.g_s)[0], x_s,
