@@ -30,6 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
+# each example compiles its own programs: a cold figure, not one of programs another run left in the
+# persistent compilation cache (set before jaxroll is imported; JAXROLL_COMPILATION_CACHE=1 to measure a warm one)
+os.environ.setdefault("JAXROLL_COMPILATION_CACHE", "0")
+
 TRUE = {"G0": 3e6, "tau": 0.25, "f": 1.0}
 COMMAND = "python benchmarks/fit_examples.py --record"
 

@@ -14,6 +14,7 @@ before ``import jaxroll`` keeps them.
 
 import os as _os
 import sys as _sys
+import typing as _typing
 
 # the level is read once, when JAX loads XLA; "0", "off", ... switch the cache off
 # (jaxroll._compilation_cache._OFF, not imported here: it imports JAX)
@@ -64,6 +65,13 @@ _LAZY = {
                                          "RollingData", "fit_material")},
     **{n: (f".{n}", None) for n in ("apps", "conveyor", "datasets", "identify", "io")},
 }
+
+
+if _typing.TYPE_CHECKING:  # the same names for static readers (type checkers, IDEs, the API reference's mkdocstrings)
+    from . import apps, conveyor, datasets, identify, io
+    from .identify.fit import DMAData, FitResult, IdentifiabilityWarning, MisfitWarning, RollingData, fit_material
+    from .io import DataWarning
+    from .maps import ResistanceMap, resistance_map
 
 
 def __getattr__(name):
