@@ -52,6 +52,7 @@ from __future__ import annotations
 import hashlib
 import os
 import platform
+import re
 from pathlib import Path
 
 import jax
@@ -124,7 +125,7 @@ def enable(environ=None) -> Path | None:
 #: Subdirectory of the compilation cache directory that holds the lowered programs.
 PROGRAMS = "jaxroll-lowered"
 
-_FORMAT = 1  # of the stored files; part of every key
+_FORMAT = 2  # of the stored files; part of every key
 _memo: dict = {}  # (function, input structure, static leaves, shapes, trace context) -> (run, output structure)
 _prefix: list = []  # the key's part common to every program of this process (computed once)
 
@@ -198,7 +199,7 @@ def _key_prefix() -> str:
         for path in sorted(Path(__file__).parent.rglob("*.py")):
             source.update(str(path.relative_to(Path(__file__).parent)).encode() + b"\0" + path.read_bytes())
         # SciPy computes some of the programs' constants on the host; its version file, read
-        # without importing SciPy (a program loaded from the cache needs none of it)
+        # without importing SciPy (a loaded program needs only its LAPACK, if any: _prepare_custom_calls)
         spec = importlib.util.find_spec("scipy")
         scipy_version = Path(spec.origin).with_name("version.py").read_text() if spec and spec.origin else ""
         versions = (jax.__version__, jaxlib.__version__, equinox.__version__, numpy.__version__, scipy_version,
@@ -286,6 +287,27 @@ def _is_array(x) -> bool:
     return isinstance(x, (jax.Array, np.ndarray))
 
 
+#: Prefix of jaxlib's LAPACK kernels (e.g. ``lapack_dtrsm_ffi``, GMRES's triangular solve).
+_LAPACK = "lapack_"
+
+
+def _prepare_custom_calls(targets) -> bool:
+    """Make the custom-call kernels of a loaded program callable; ``False`` where that cannot be
+    done (then the function runs itself). jaxlib's LAPACK kernels take their function pointers
+    from SciPy's LAPACK when a program that uses them is *lowered*; a process that only loads
+    stored programs lowers none, and calling such a kernel uninitialised crashes the process
+    (a segmentation fault: seen with the default sphere point's triangular solve)."""
+    if not targets:
+        return True
+    try:
+        from jaxlib import lapack
+
+        lapack._lapack.initialize()
+    except Exception:  # noqa: BLE001  (a jaxlib without this entry point: trace the function instead)
+        return False
+    return all(t.startswith(_LAPACK) for t in targets)
+
+
 def _lowered(fn, leaves, treedef, dynamic, shapes):
     """``(run, output structure)`` of ``fn`` at this configuration, loaded or lowered and stored;
     ``False`` where it cannot be stored (then ``fn`` runs as usual)."""
@@ -306,7 +328,7 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
     try:
         with open(path, "rb") as fh:
             stored = pickle.load(fh)
-        if stored["key"] == key:
+        if stored["key"] == key and _prepare_custom_calls(stored["custom_calls"]):
             exported = stored["exported"]
             return jax.jit(exported.call), jax.tree_util.tree_structure(stored["outputs"])
     except Exception:  # noqa: BLE001  (absent, unreadable or from another version: lower anew)
@@ -326,8 +348,12 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
         exported = jax.export.export(jax.jit(flat))(*avals)
         if exported.ordered_effects or exported.unordered_effects or exported.nr_devices != 1:
             return False
+        custom_calls = sorted(set(re.findall(r"custom_call @(\w+)", exported.mlir_module())))
+        if not all(t.startswith(_LAPACK) for t in custom_calls):  # only kernels this module can prepare
+            return False
         outputs = jax.tree_util.tree_unflatten(structure[0], range(structure[0].num_leaves))
-        blob = pickle.dumps({"key": key, "exported": dataclasses.replace(exported, _get_vjp=None), "outputs": outputs})
+        blob = pickle.dumps({"key": key, "exported": dataclasses.replace(exported, _get_vjp=None), "outputs": outputs,
+                             "custom_calls": custom_calls})
         directory.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_bytes(blob)

@@ -228,6 +228,39 @@ def test_front_door_through_the_stored_program_gives_the_same_bits(tmp_path, mon
     assert _same_bits(stored, want) and _same_bits(loaded, want)
 
 
+_LAPACK_PROBE = """
+import sys
+import jax, jax.numpy as jnp
+import jaxroll
+from jaxroll import _compilation_cache
+
+@jax.jit
+def solve(a, b):  # a LAPACK kernel (triangular solve), as in the contact solver's GMRES
+    return jax.scipy.linalg.solve_triangular(a, b, lower=True)
+
+a = jnp.tril(jnp.arange(1.0, 17.0).reshape(4, 4)) + 4 * jnp.eye(4)
+x = _compilation_cache.call(solve, a, jnp.arange(1.0, 5.0))
+print(repr(float(jnp.max(jnp.abs(a @ x - jnp.arange(1.0, 5.0))))), len(list(_compilation_cache.programs_directory().glob("*.pkl"))))
+"""
+
+
+def test_second_process_runs_a_stored_program_with_a_lapack_kernel(tmp_path):
+    """A new process that loads a stored program lowers nothing, so jaxlib's LAPACK kernels were
+    never prepared there: running one crashed the process (a segmentation fault) until
+    :func:`jaxroll._compilation_cache.call` prepares them. Two real processes, the second loading
+    what the first stored; the solve's residual is at rounding (exact system, 4 x 4)."""
+    script = tmp_path / "probe.py"
+    script.write_text(_LAPACK_PROBE)
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COMPILATION", "JAXROLL_"))}
+    env |= {"JAXROLL_COMPILATION_CACHE": str(tmp_path / "cache"),
+            "PYTHONPATH": str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")}
+    for _ in range(2):
+        out = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr[-2000:]
+        residual, stored = out.stdout.split()[-2:]
+        assert float(residual) < 1e-12 and stored == "1"
+
+
 def test_import_before_jax_quiets_xla_log_only_with_the_cache_on():
     """``import jaxroll`` before JAX sets TF_CPP_MIN_LOG_LEVEL=3 (XLA's false SIGILL lines on
     loading cached programs) when the cache is on and the variable unset; JAX itself sets 1.
