@@ -480,16 +480,20 @@ def _binomial_range(n: int, p: float, mass: float = 0.99):
     return lo, hi
 
 
-def fit_coverage(numbers: dict) -> str:
-    """fitting/README.md: the cylinder's default fit and its intervals' coverage (``fit_coverage.py``)."""
-    sec = numbers["fit_cylinder"]
+#: the intervals each geometry's default fit gives (``intervals="auto"``)
+_COVERAGE_INTERVALS = {"cylinder": "profile-likelihood", "sphere": "linearised"}
+
+
+def fit_coverage(numbers: dict, geometry: str = "cylinder") -> str:
+    """fitting/README.md: a geometry's default fit and its intervals' coverage (``fit_coverage.py``)."""
+    sec = numbers[f"fit_{geometry}"]
     per, (hits, total), draws = sec["coverage_per_parameter"], sec["coverage"], sec["draws"]
     lo, hi = _binomial_range(draws, 0.95)
     fitted = "; ".join(f"{n} {_g3(sec['params'][n] / _FIT_UNITS[n][0])} [{_g3(sec['ci95'][n][0] / _FIT_UNITS[n][0])}, "
                        f"{_g3(sec['ci95'][n][1] / _FIT_UNITS[n][0])}]" for n in _FIT_UNITS)
     return (f"Measured {_machine(sec['measured'])}: the shipped set gives {fitted} (G0 in MPa, tau in s), "
             f"{sec['first_fit_cpu_s']:g} s of CPU with compilation ({sec['first_fit_s']:g} s wall at load average "
-            f"{sec['load_average']:g}). Over {draws} noise draws the 95 % intervals hold the truth in "
+            f"{sec['load_average']:g}). Over {draws} noise draws the 95 % {_COVERAGE_INTERVALS[geometry]} intervals hold the truth in "
             f"**{per['G0']} (G0), {per['tau']} (tau) and {per['f']} (f) of {draws} draws** ({hits} of {total} "
             f"intervals); honest 95 % intervals give {lo}-{hi} per parameter with 99 % probability (binomial; the "
             "three parameters miss together, so the draws are the independent trials).")
@@ -513,6 +517,7 @@ BLOCKS = {
     "scripts": scripts,
     "fit-examples": fit_examples_table,
     "fit-coverage": fit_coverage,
+    "fit-coverage-sphere": lambda numbers: fit_coverage(numbers, "sphere"),
 }
 
 #: files holding generated blocks
