@@ -1122,25 +1122,29 @@ def fit_material(
 
         return None if auto is None else stop
 
-    def run(method, model, n_starts, resolved):
+    def run(method, model, n_starts, resolved, may_stop=True):
+        """One least-squares run (``may_stop``: with the early stop of :data:`REGRID_WITHIN`, only
+        where a regrid can still follow, so that the fit never ends on an early-stopped run)."""
         params = _Params.of(model, free, bounds)
         problem = _Problem.of(params, None if rolling is None else radius, geometry, method, jac_step)
         data = _data_arrays(rolling, dma, method)
         return params, problem, data, _multistart(problem, model, data, solver=solver, n_starts=n_starts,
                                                   spread_decades=spread_decades, seed=seed, max_steps=max_steps,
                                                   rtol=rtol, progress=progress,
-                                                  stop=stopping(params, model, resolved))
+                                                  stop=stopping(params, model, resolved) if may_stop else None)
 
-    params, problem, data, (u, converged, cost, r, J, starts) = run(method, model, n_starts, resolved)
+    params, problem, data, (u, converged, cost, r, J, starts) = run(method, model, n_starts, resolved,
+                                                                    may_stop=MAX_REGRIDS > 0)
     ends, profile_notes = None, []
     for restart in range(MAX_VALLEY_RESTARTS + 1):
-        for _ in range(MAX_REGRIDS if auto is not None else 0):  # the fit left the grid's envelope: again
+        for regrid in range(MAX_REGRIDS if auto is not None else 0):  # the fit left the grid's envelope: again
             again, again_resolved = _resolve_for_fit(auto, *at(params, u, model)[:2], radius, rolling, geometry,
                                                      dense_lines)
             if not _grid_moved(resolved, again_resolved):
                 break
             method, model, resolved = again, at(params, u, model), again_resolved
-            params, problem, data, (u, converged, cost, r, J, more) = run(method, model, 1, resolved)
+            params, problem, data, (u, converged, cost, r, J, more) = run(method, model, 1, resolved,
+                                                                          may_stop=regrid < MAX_REGRIDS - 1)
             starts = starts + more
         if not profiled:
             break
