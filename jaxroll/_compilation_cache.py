@@ -39,7 +39,9 @@ files, the versions of JAX, jaxlib, equinox, NumPy, SciPy and Python, JAX's plat
 settings (``jax_enable_x64``, dtype promotion, ...), the function, the exact text of every static
 argument and pytree node (fully qualified types; a value without an exact text, e.g. a function,
 is not stored), and the shapes, dtypes and weak types of the array inputs. The numbers are those
-of the traced program bit for bit (the same StableHLO, compiled the same way). Calls under a
+of the traced program bit for bit (the same StableHLO, compiled the same way: a top-level program
+with jaxroll's XLA options, :mod:`jaxroll._xla_options`; a program that is not stored is compiled
+so too, in the process). Calls under a
 user's ``jit``/``vmap``/``grad`` (traced inputs, or any trace under way) run the function itself,
 so transformations see the original program. A file that is absent, unreadable or of another
 key is written anew; a stored program that does not run leaves the function to run itself.
@@ -56,6 +58,8 @@ import re
 from pathlib import Path
 
 import jax
+
+from ._xla_options import compiler_options
 
 __all__ = ["ENV_VAR", "MIN_COMPILE_TIME", "cache_directory", "enable", "processor_tag"]
 
@@ -242,7 +246,7 @@ def call(fn, *args):
     except TypeError:  # an unhashable static value: fn's own jit would refuse it too
         return fn(*args)
     if entry is None:
-        entry = _lowered(fn, leaves, treedef, dynamic, shapes)
+        entry = _lowered(fn, leaves, treedef, dynamic, shapes) or _in_process(fn, leaves, treedef, dynamic)
         _memo[memo_key] = entry
     if entry is False:
         return fn(*args)
@@ -250,9 +254,28 @@ def call(fn, *args):
     try:
         out = run(*[leaves[i] for i in dynamic])
     except Exception:  # noqa: BLE001  (a stored program this JAX cannot run: fn itself from now on)
-        _memo[memo_key] = False
-        return fn(*args)
-    return jax.tree_util.tree_unflatten(out_tree, out)
+        if out_tree is not None:
+            _memo[memo_key] = False
+        return fn(*args)  # (an in-process program's error: fn raises it with its own message)
+    return out if out_tree is None else jax.tree_util.tree_unflatten(out_tree, out)
+
+
+def _in_process(fn, leaves, treedef, dynamic):
+    """``(run, None)``: ``fn`` at this static configuration as a top-level program of its own,
+    compiled with jaxroll's XLA options (:mod:`jaxroll._xla_options`), for a program that is not
+    stored; ``False`` where there are no options (then ``fn`` runs as usual)."""
+    options = compiler_options()
+    if options is None:
+        return False
+    template = [None if i in dynamic else x for i, x in enumerate(leaves)]
+
+    def run(*values):
+        full = list(template)
+        for i, v in zip(dynamic, values):
+            full[i] = v
+        return fn(*jax.tree_util.tree_unflatten(treedef, full))
+
+    return jax.jit(run, compiler_options=options), None
 
 
 def _outside_traces() -> bool:
@@ -330,7 +353,8 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
             stored = pickle.load(fh)
         if stored["key"] == key and _prepare_custom_calls(stored["custom_calls"]):
             exported = stored["exported"]
-            return jax.jit(exported.call), jax.tree_util.tree_structure(stored["outputs"])
+            return jax.jit(exported.call, compiler_options=compiler_options()), jax.tree_util.tree_structure(
+                stored["outputs"])
     except Exception:  # noqa: BLE001  (absent, unreadable or from another version: lower anew)
         pass
 
@@ -361,4 +385,4 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
     except Exception as err:  # noqa: BLE001  (an unexportable program or an unwritable folder: run fn itself)
         logging.getLogger("jaxroll").debug("not storing the lowered program of %s: %s", _qualname_of(fn), err)
         return False
-    return jax.jit(exported.call), structure[0]
+    return jax.jit(exported.call, compiler_options=compiler_options()), structure[0]

@@ -22,6 +22,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._xla_options import compiler_options
+
 __all__ = ["padded", "class_lengths", "compiled", "evaluate_buckets"]
 
 #: Compiled programs by function, static configuration and argument shapes (:func:`compiled`).
@@ -59,7 +61,7 @@ def compiled(fn, args, static) -> tuple:
     seconds = 0.0
     if key not in _PROGRAMS:
         t = time.perf_counter()
-        _PROGRAMS[key] = fn.lower(*args, **static).compile()
+        _PROGRAMS[key] = fn.lower(*args, **static).compile(compiler_options())
         seconds = time.perf_counter() - t
     program = _PROGRAMS[key]
     return (lambda *a: program(*a, **static)), seconds

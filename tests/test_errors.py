@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import pytest
 
 import jaxroll as jr
-from jaxroll import _compilation_cache, grids
+from jaxroll import _compilation_cache, _xla_options, grids
 from jaxroll.apps.cli.options import runtime_message
 
 SLS = jr.StandardLinearSolid(3e6, 0.25, 1.0)
@@ -224,8 +224,60 @@ def test_front_door_through_the_stored_program_gives_the_same_bits(tmp_path, mon
     _forget(rolling._point)
     loaded = _direct(20.0, throw=False)
     method = jr.methods.as_method("direct").dynamic()
-    want = rolling._point(method, SLS, THIN, as_float(R), as_float(20.0), as_float(0.01), "sphere", False)
+    inputs = (as_float(R), as_float(20.0), as_float(0.01))
+    want = rolling._point(method, SLS, THIN, *inputs, "sphere", False)
     assert _same_bits(stored, want) and _same_bits(loaded, want)
+    # with jaxroll's XLA options (off in the suite by its XLA_FLAGS): the stored program's bits
+    # are those of the function compiled as a top-level program with them, and differ from the
+    # suite's compilation by rounding only
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    options = _xla_options.compiler_options()
+    _forget(rolling._point)
+    optioned = _direct(20.0, throw=False)
+    arrays, static = eqx.partition((SLS, THIN), eqx.is_array)  # as the front door's program takes them
+    top = jax.jit(lambda d, *a: rolling._point(method, *eqx.combine(d, static), *a, "sphere", False),
+                  compiler_options=options)
+    assert options and _same_bits(optioned, top(arrays, *inputs))
+    assert float(optioned.value) == pytest.approx(float(want.value), rel=1e-13)  # rounding (closed forms)
+
+
+@jax.jit
+def _sines(x):  # a program whose optimised HLO differs with XLA:CPU's fusion emitters on and off
+    return jnp.sum(jnp.sin(x) ** 2 + jnp.exp(x))
+
+
+def test_xla_options_follow_the_platform_the_switch_and_xla_flags():
+    opts = _xla_options.compiler_options
+    assert opts("cpu", {}) == _xla_options.CPU_OPTIONS and opts("cpu", {}) is not _xla_options.CPU_OPTIONS
+    assert opts("gpu", {}) is None and opts("tpu", {}) is None  # XLA:CPU's keys go to CPU programs only
+    for off in ("0", "off", "False", "no"):
+        assert opts("cpu", {"JAXROLL_XLA_OPTIONS": off}) is None
+    # an option the process's XLA_FLAGS sets stays the process's (the suite's level 0)
+    assert opts("cpu", {"XLA_FLAGS": "--xla_backend_optimization_level=0"}) == {
+        k: v for k, v in _xla_options.CPU_OPTIONS.items() if k != "xla_backend_optimization_level"}
+    assert opts("cpu", {"XLA_FLAGS": " ".join(f"--{k}=1" for k in _xla_options.CPU_OPTIONS)}) is None
+
+
+def test_xla_options_reach_the_program_and_switch_off(monkeypatch):
+    """:func:`jaxroll._compilation_cache.call` compiles a program that is not stored as a
+    top-level program with jaxroll's XLA options: the optimised HLO is that of the options (here
+    fusion emitters on, against the suite's ``XLA_FLAGS`` that turn them off); switched off, the
+    function runs itself."""
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: None)
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    monkeypatch.setattr(_xla_options, "CPU_OPTIONS", {"xla_cpu_use_fusion_emitters": True})
+    x = jnp.linspace(0.1, 1.0, 64)
+    _forget(_sines)
+    assert float(_compilation_cache.call(_sines, x)) == pytest.approx(float(_sines(x)), rel=1e-14)  # rounding
+    (run, _), = [v for k, v in _compilation_cache._memo.items() if k[0] is _sines]
+    lowered = run.lower(x)
+    text = lowered.compile().as_text()
+    assert text == lowered.compile({"xla_cpu_use_fusion_emitters": True}).as_text()
+    assert text != lowered.compile({"xla_cpu_use_fusion_emitters": False}).as_text()
+    monkeypatch.setenv("JAXROLL_XLA_OPTIONS", "0")
+    _forget(_sines)
+    assert float(_compilation_cache.call(_sines, x)) == float(_sines(x))
+    assert [v for k, v in _compilation_cache._memo.items() if k[0] is _sines] == [False]
 
 
 _LAPACK_PROBE = """

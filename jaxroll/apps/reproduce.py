@@ -43,6 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._xla_options import compiler_options
 from ..io import write_table
 from ..result import RESULTS
 
@@ -278,7 +279,7 @@ def _run(method, case: Case, loads, speeds, cache: dict) -> MethodResult:
     c = 0.0
     if key not in cache:
         t = time.perf_counter()
-        cache[key] = jax.jit(fn).lower(*args).compile()
+        cache[key] = jax.jit(fn).lower(*args).compile(compiler_options())
         c = time.perf_counter() - t
     t = time.perf_counter()
     v, st = jax.block_until_ready(cache[key](*args))

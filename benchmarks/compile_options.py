@@ -1,0 +1,179 @@
+"""What per-program XLA options cost and save on jaxroll's heavy programs: compile CPU seconds, run
+seconds and the numbers' agreement, one process, option sets alternating.
+
+    python benchmarks/compile_options.py [--programs reference reference-grad point point-grad map]
+                                         [--rounds 2] [--repeat 3] [--sets base emitters ...]
+
+Unlike ``XLA_FLAGS`` (process-wide, read when JAX starts: ``benchmarks/xla_flags.py``), these
+options belong to one executable (``jax.jit(f).lower(...).compile(options)``): what
+:mod:`jaxroll._xla_options` gives the library's own top-level programs. Each program is lowered
+once and compiled anew for every option set (the persistent compilation cache off), in ``--rounds``
+rounds that alternate the sets; reported: the median compile CPU seconds (process user + system)
+and wall seconds, the median run wall seconds of ``--repeat`` calls after a warm-up, and the largest
+relative difference of the outputs to those of XLA's defaults (0 = bit for bit). Programs:
+
+- ``reference`` / ``reference-grad``: the paper's reference case table (23 speeds x 15 loads, 0.25 mm
+  cells, infinite 30 mm layer; ``bench_sphere3d.py --H 0.03 --period none``) and its gradient with
+  respect to (G0, tau, f, H), jitted by the caller;
+- ``point`` / ``point-grad``: one point of the default sphere method (``jr.default_method()``
+  resolved for R = 2 cm, 100 N, 10 mm/s on a 30 mm layer) and its gradient;
+- ``map``: the largest program of ``jr.resistance_map`` of the shipped measured Prony material
+  (9 x 9 temperatures x speeds; ``bench_batched.py``'s map), captured from the library.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import time
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import jaxroll as jr
+
+OPTION_SETS = {
+    "base": {},
+    "emitters": {"xla_cpu_use_fusion_emitters": False},
+    "emitters+O2": {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2},
+    "emitters+O1": {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 1},
+    "emitters+cheap": {"xla_cpu_use_fusion_emitters": False, "xla_llvm_disable_expensive_passes": True},
+    "O1": {"xla_backend_optimization_level": 1},
+    "cheap": {"xla_llvm_disable_expensive_passes": True},
+}
+
+G0, TAU, F, R, H = 3e6, 0.25, 1.0, 0.02, 0.03
+
+
+def reference_programs():
+    speeds, loads, spacing = np.logspace(-4, 0, 23), np.linspace(10, 150, 15), 2.5e-4
+    mat = jr.StandardLinearSolid(G0, TAU, F)
+    r_max = float(jr.engines.contact_size.estimate_contact_size(mat, jr.Layer(H), R, float(loads.max())))
+    window = max(41, 2 * math.ceil(1.15 * r_max / spacing) + 1)
+    method = jr.Full(grid=jr.FixedGrid(spacing, window, period=None, n_terms=None), tol=1e-10)
+
+    def table(G, tau, f, h, loads, speeds):
+        out = jr.rolling_resistance_grid(jr.StandardLinearSolid(G, tau, f), jr.Layer(h), radius=R, loads=loads,
+                                         speeds=speeds, method=method)
+        return out.value, out.result
+
+    def objective(*theta):
+        value, result = table(*theta)
+        return jnp.sum(jnp.where(result == 0, value, 0.0))
+
+    args = (G0, TAU, F, H, jnp.asarray(loads), jnp.asarray(speeds))
+    return {"reference": (table, args), "reference-grad": (jax.grad(objective, argnums=(0, 1, 2, 3)), args)}
+
+
+def point_programs():
+    mat, layer = jr.StandardLinearSolid(G0, TAU, F), jr.Layer(H)
+    method = jr.methods.default_method("sphere").resolve(mat, layer, radius=R, loads=100.0, speeds=0.01)
+
+    def point(G, tau, f, h, P, V):
+        return jr.rolling_resistance(jr.StandardLinearSolid(G, tau, f), jr.Layer(h), radius=R, load=P, speed=V,
+                                     method=method, throw=False).value
+
+    args = (G0, TAU, F, H, 100.0, 0.01)
+    return {"point": (point, args), "point-grad": (jax.grad(point, argnums=(0, 1, 2, 3)), args)}
+
+
+def map_program():
+    """The largest ``(fn, args, static)`` that ``jr.resistance_map`` compiles (captured)."""
+    from jaxroll import buckets
+
+    seen = []
+    original = buckets.compiled
+
+    def capture(fn, args, static):
+        seen.append((fn, args, static))
+        return original(fn, args, static)
+
+    sw = jr.read_dma_sweeps(jr.datasets.path("pyvisco_freq_user_raw.csv"))
+    sh = jr.fit_shift_factors(sw, T_ref=298.15)
+    wlf, pf = jr.fit_wlf(sh), jr.fit_prony(jr.master_curve(sw, sh))
+    buckets.compiled = capture
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", jr.ValidityWarning)
+            jr.resistance_map(pf.material, wlf.shift, jr.Layer(0.01), radius=0.01, load=10.0,
+                              temperatures=np.linspace(253.15, 373.15, 9), speeds=np.logspace(-3, 1, 9))
+    finally:
+        buckets.compiled = original
+    fn, args, static = max(seen, key=lambda s: len(fn_text(*s)))
+    return fn, args, static
+
+
+def fn_text(fn, args, static):
+    return fn.lower(*args, **static).as_text()
+
+
+def lowered_of(name, programs):
+    if name == "map":
+        fn, args, static = map_program()
+        return fn.lower(*args, **static), (lambda c: c(*args, **static))
+    fn, args = programs[name]
+    return jax.jit(fn).lower(*args), (lambda c: c(*args))
+
+
+def max_rel_diff(a, b) -> float:
+    diffs = [0.0]
+    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        if x.size:  # relative to each entry (an exact zero: absolute)
+            diffs.append(float(np.max(np.abs(x - y) / np.maximum(np.abs(x), 1e-300))))
+    return max(diffs)
+
+
+def measure(name, lowered, run, sets, rounds, repeat):
+    comp = {s: [] for s in sets}
+    wall = {s: [] for s in sets}
+    runs = {s: [] for s in sets}
+    outs = {}
+    for r in range(rounds):
+        for s in (sets if r % 2 == 0 else sets[::-1]):
+            c0, w0 = time.process_time(), time.perf_counter()
+            compiled = lowered.compile(OPTION_SETS[s] or None)
+            comp[s].append(time.process_time() - c0)
+            wall[s].append(time.perf_counter() - w0)
+            outs[s] = jax.block_until_ready(run(compiled))
+            for _ in range(repeat):
+                t = time.perf_counter()
+                jax.block_until_ready(run(compiled))
+                runs[s].append(time.perf_counter() - t)
+            del compiled
+    base = sets[0]
+    c_base, r_base = statistics.median(comp[base]), statistics.median(runs[base])
+    for s in sets:
+        c, w, t = statistics.median(comp[s]), statistics.median(wall[s]), statistics.median(runs[s])
+        print(f"{name:15s} {s:15s} compile {c:6.2f} s CPU ({w:6.2f} s wall) = {c / c_base:4.2f}x; run {t:7.4f} s "
+              f"= {t / r_base:4.2f}x; max rel diff {max_rel_diff(outs[base], outs[s]):.1e}; "
+              f"load {os.getloadavg()[0]:.1f}", flush=True)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--programs", nargs="+", default=["reference", "reference-grad", "point", "point-grad", "map"])
+    ap.add_argument("--sets", nargs="+", default=["base", "emitters", "emitters+O2", "emitters+cheap"],
+                    choices=list(OPTION_SETS))
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    sets = ["base"] + [s for s in args.sets if s != "base"]
+    jax.config.update("jax_enable_compilation_cache", False)
+    print(f"device: {jax.devices()[0].device_kind}; cpu count {os.cpu_count()}; load avg {os.getloadavg()[0]:.1f}")
+    programs = {}
+    if any(p.startswith("reference") for p in args.programs):
+        programs.update(reference_programs())
+    if any(p.startswith("point") for p in args.programs):
+        programs.update(point_programs())
+    for name in args.programs:
+        lowered, run = lowered_of(name, programs)
+        measure(name, lowered, run, sets, args.rounds, args.repeat)
+
+
+if __name__ == "__main__":
+    main()

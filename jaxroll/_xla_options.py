@@ -1,0 +1,62 @@
+"""XLA compile options of jaxroll's own top-level programs (CPU only).
+
+jaxroll's programs are bound by compilation on a first call (seconds for a full-model point,
+hundreds of small kernels each costing XLA:CPU's LLVM pipeline about the same). Two XLA:CPU
+options shorten that without slowing the programs (measured by
+``benchmarks/compile_options.py``, benchmarks/LOG.md):
+
+* ``xla_cpu_use_fusion_emitters=False``: XLA's element-wise IR emitters instead of its newer
+  fusion emitters;
+* ``xla_backend_optimization_level=2``: LLVM's ``-O2`` instead of ``-O3``.
+
+They are *per-program* options (``jax.jit(...).lower(...).compile(options)``): they apply to the
+executables jaxroll compiles itself when a front door is called eagerly (the stored programs of
+:func:`jaxroll._compilation_cache.call`, the maps' and buckets' ahead-of-time programs), never to
+the user's other programs, and never to a program the user traces (inside a user's ``jax.jit``,
+``jax.grad`` or ``jax.vmap``, jaxroll's functions are part of the user's program, whose options
+are the user's: JAX allows options on the top-level program only). A user who compiles such a
+program may pass :func:`compiler_options` themselves:
+``jax.jit(f, compiler_options=jaxroll.compiler_options())``.
+
+The numbers change by rounding only (a different order of floating-point operations: relative
+differences of 1e-15..1e-13 measured, against the solvers' tolerance of 1e-10); no option that
+changes semantics (fast min/max, fast math) is set. The environment variable
+``JAXROLL_XLA_OPTIONS=0`` (or ``off``, ``false``, ``no``) switches them off, for comparison or
+where an XLA version rejects them; an option that the process's ``XLA_FLAGS`` sets keeps the
+process's value (the test suite compiles at ``--xla_backend_optimization_level=0``). Other
+platforms get none (the GPU compiler has its own pipeline; these choices were measured on CPU).
+"""
+
+from __future__ import annotations
+
+import os
+
+__all__ = ["CPU_OPTIONS", "ENV_VAR", "compiler_options"]
+
+#: Environment variable: ``0``/``off``/``false``/``no`` switches the options off.
+ENV_VAR = "JAXROLL_XLA_OPTIONS"
+
+#: The options of jaxroll's programs on the CPU platform (see the module docstring).
+CPU_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
+
+_OFF = ("0", "off", "false", "no")
+
+
+def compiler_options(platform: str | None = None, environ=None) -> dict | None:
+    """The XLA options for a program compiled for ``platform`` (default: JAX's default backend),
+    a new dict without the options that ``XLA_FLAGS`` sets; ``None`` where none is left (a
+    platform other than CPU, or ``JAXROLL_XLA_OPTIONS`` off; ``environ``: default ``os.environ``). For
+    ``jax.jit(f, compiler_options=...)`` or ``Lowered.compile(...)`` of a top-level program."""
+    environ = os.environ if environ is None else environ
+    if environ.get(ENV_VAR, "").strip().lower() in _OFF:
+        return None
+    if platform is None:
+        import jax
+
+        platform = jax.default_backend()
+    if platform != "cpu":
+        return None
+    # an option the process sets in XLA_FLAGS stays the process's (e.g. the test suite's lighter level)
+    flags = environ.get("XLA_FLAGS", "")
+    options = {k: v for k, v in CPU_OPTIONS.items() if f"--{k}=" not in flags and f"--{k} " not in f"{flags} "}
+    return options or None
