@@ -32,12 +32,13 @@ def timed(fn, *args, repeat=5, all_runs=False):
     return first, (runs if all_runs else statistics.median(runs)), out
 
 
-def aot(fn, *args, repeat=5):
+def aot(fn, *args, repeat=5, options=None):
     """``(compile, median, output, compiled)``: ``jax.jit(fn)`` lowered and compiled ahead of time
-    (timed alone, as ``jaxroll.apps.reproduce`` does), then one warm-up call and the median of
-    ``repeat`` timed calls of the compiled program."""
+    (timed alone, as ``jaxroll.apps.reproduce`` does; ``options``: XLA compile options, e.g.
+    jaxroll's own, ``jaxroll._xla_options.compiler_options()``), then one warm-up call and the
+    median of ``repeat`` timed calls of the compiled program."""
     t = time.perf_counter()
-    compiled = jax.jit(fn).lower(*args).compile()
+    compiled = jax.jit(fn).lower(*args).compile(options)
     comp = time.perf_counter() - t
     _, median, out = timed(compiled, *args, repeat=repeat)
     return comp, median, out, compiled

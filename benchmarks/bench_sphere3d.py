@@ -8,7 +8,9 @@ loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at th
 resolution: ``jr.Full(grid=jr.FixedGrid(2.5e-4, window, period=0.2, n_terms=500))`` with the
 window of 41 cells of the paper, enlarged to fit the largest contact. Paper: 54 min per reference
 case. Timed through ``jr.rolling_resistance_grid`` compiled ahead of time (material and layer
-parameters as arguments, as in ``jaxroll.apps.reproduce``): compile apart, median of repeats.
+parameters as arguments, as in ``jaxroll.apps.reproduce``, with jaxroll's XLA options as there:
+``jaxroll._xla_options``; ``JAXROLL_XLA_OPTIONS=0``: XLA's defaults): compile apart, median of
+repeats.
 
 Reports the device, resolution, the points that are not valid (``RollingResult.result``), the
 active-set iterations and the compiled working memory. ``--quick``: 6 speeds x 4 loads, cells
@@ -31,6 +33,7 @@ import numpy as np
 
 import jaxroll as jr
 from _timing import aot, summary
+from jaxroll._xla_options import compiler_options
 
 G0, TAU, F, R = 3e6, 0.25, 1.0, 0.02
 PAPER_S = 54 * 60.0
@@ -70,12 +73,12 @@ def main():
 
     theta = (G0, TAU, F, args.H, jnp.asarray(loads), jnp.asarray(speeds))
     print(f"device: {jax.devices()[0].device_kind} x {len(jax.devices())}; cpu count {os.cpu_count()}; "
-          f"load avg {os.getloadavg()[0]:.1f} (shared machine)")
+          f"load avg {os.getloadavg()[0]:.1f} (shared machine); XLA options {compiler_options()}")
     cells = "infinite layer" if period is None else f"{round(period / spacing)}^2 cells"
     print(f"resolution: L = {period} m, a = {spacing * 1e3} mm ({cells}), "
           f"window {window}^2, n_terms {n_terms}, tol {args.tol:g}; {len(speeds)} speeds x {len(loads)} loads; "
           f"H = {args.H} m")
-    comp, med, (v, st, it), compiled = aot(table, *theta, repeat=repeat)
+    comp, med, (v, st, it), compiled = aot(table, *theta, repeat=repeat, options=compiler_options())
     v, st, it = np.asarray(v), np.asarray(st), np.asarray(it)
     per_case = med * 345 / v.size
     print(f"compile {comp:.1f} s; run median {med:.2f} s for {v.size} points ({per_case:.1f} s scaled to the 345 "
@@ -96,7 +99,8 @@ def main():
             value, result, _ = table(G, tau, f, H, loads, speeds)
             return jnp.sum(jnp.where(result == 0, value, 0.0))
 
-        gcomp, gmed, g, _ = aot(jax.grad(objective, argnums=(0, 1, 2, 3)), *theta, repeat=repeat)
+        gcomp, gmed, g, _ = aot(jax.grad(objective, argnums=(0, 1, 2, 3)), *theta, repeat=repeat,
+                                options=compiler_options())
         print(f"gradient d(sum R_r)/d(G0, tau, f, H): compile {gcomp:.1f} s; run median {gmed:.2f} s "
               f"({gmed / med:.2f}x the forward table); {[float(x) for x in g]}")
         grad_note = f"; gradient (G0, tau, f, H) {gmed:.2f} s = {gmed / med:.2f}x, compile {gcomp:.1f} s"
@@ -119,7 +123,7 @@ def program_report(name, fn, args):
         lowered = jax.jit(fn).lower(*args)
         text = lowered.as_text()
         cpu, wall = time.process_time(), time.perf_counter()
-        lowered.compile()
+        lowered.compile(compiler_options())
         cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     finally:
         jax.config.update("jax_enable_compilation_cache", cached)

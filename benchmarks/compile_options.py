@@ -6,11 +6,13 @@ seconds and the numbers' agreement, one process, option sets alternating.
 
 Unlike ``XLA_FLAGS`` (process-wide, read when JAX starts: ``benchmarks/xla_flags.py``), these
 options belong to one executable (``jax.jit(f).lower(...).compile(options)``): what
-:mod:`jaxroll._xla_options` gives the library's own top-level programs. Each program is lowered
-once and compiled anew for every option set (the persistent compilation cache off), in ``--rounds``
-rounds that alternate the sets; reported: the median compile CPU seconds (process user + system)
-and wall seconds, the median run wall seconds of ``--repeat`` calls after a warm-up, and the largest
-relative difference of the outputs to those of XLA's defaults (0 = bit for bit). Programs:
+:mod:`jaxroll._xla_options` gives the library's own top-level programs. Each program is compiled
+for every option set (the persistent compilation cache off) in ``--rounds`` rounds that alternate
+the sets, lowered anew each time after ``jax.clear_caches()`` (JAX keeps compiled executables in
+memory by program and options). Reported: the median compile CPU seconds (process user + system)
+and wall seconds; the median run CPU (and wall) seconds of ``--repeat`` calls after a warm-up
+(ratios of CPU seconds, steadier than wall time on a shared machine); the largest relative
+difference of the outputs to those of XLA's defaults (0: bit for bit). Programs:
 
 - ``reference`` / ``reference-grad``: the paper's reference case table (23 speeds x 15 loads, 0.25 mm
   cells, infinite 30 mm layer; ``bench_sphere3d.py --H 0.03 --period none``) and its gradient with
@@ -30,11 +32,13 @@ import statistics
 import time
 import warnings
 
-import jax
-import jax.numpy as jnp
-import numpy as np
+os.environ.setdefault("JAXROLL_COMPILATION_CACHE", "0")  # compile every time (set before jaxroll starts the cache)
 
-import jaxroll as jr
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+import jaxroll as jr  # noqa: E402
 
 OPTION_SETS = {
     "base": {},
@@ -112,11 +116,13 @@ def fn_text(fn, args, static):
 
 
 def lowered_of(name, programs):
+    """``(lower, run)``: a function that lowers the program anew (after ``jax.clear_caches``, so
+    that no compilation is served from JAX's in-memory caches) and one that runs a compiled one."""
     if name == "map":
         fn, args, static = map_program()
-        return fn.lower(*args, **static), (lambda c: c(*args, **static))
+        return (lambda: fn.lower(*args, **static)), (lambda c: c(*args, **static))
     fn, args = programs[name]
-    return jax.jit(fn).lower(*args), (lambda c: c(*args))
+    return (lambda: jax.jit(fn).lower(*args)), (lambda c: c(*args))
 
 
 def max_rel_diff(a, b) -> float:
@@ -128,29 +134,34 @@ def max_rel_diff(a, b) -> float:
     return max(diffs)
 
 
-def measure(name, lowered, run, sets, rounds, repeat):
+def measure(name, lower, run, sets, rounds, repeat):
     comp = {s: [] for s in sets}
     wall = {s: [] for s in sets}
     runs = {s: [] for s in sets}
+    run_cpu = {s: [] for s in sets}
     outs = {}
     for r in range(rounds):
         for s in (sets if r % 2 == 0 else sets[::-1]):
+            jax.clear_caches()
+            lowered = lower()
             c0, w0 = time.process_time(), time.perf_counter()
-            compiled = lowered.compile(OPTION_SETS[s] or None)
+            compiled = lowered.compile(dict(OPTION_SETS[s]))
             comp[s].append(time.process_time() - c0)
             wall[s].append(time.perf_counter() - w0)
             outs[s] = jax.block_until_ready(run(compiled))
             for _ in range(repeat):
-                t = time.perf_counter()
+                t, c0 = time.perf_counter(), time.process_time()
                 jax.block_until_ready(run(compiled))
                 runs[s].append(time.perf_counter() - t)
+                run_cpu[s].append(time.process_time() - c0)
             del compiled
     base = sets[0]
-    c_base, r_base = statistics.median(comp[base]), statistics.median(runs[base])
+    c_base, r_base = statistics.median(comp[base]), statistics.median(run_cpu[base])
     for s in sets:
-        c, w, t = statistics.median(comp[s]), statistics.median(wall[s]), statistics.median(runs[s])
+        c, w = statistics.median(comp[s]), statistics.median(wall[s])
+        t, tw = statistics.median(run_cpu[s]), statistics.median(runs[s])
         print(f"{name:15s} {s:15s} compile {c:6.2f} s CPU ({w:6.2f} s wall) = {c / c_base:4.2f}x; run {t:7.4f} s "
-              f"= {t / r_base:4.2f}x; max rel diff {max_rel_diff(outs[base], outs[s]):.1e}; "
+              f"CPU ({tw:7.4f} s wall) = {t / r_base:4.2f}x; max rel diff {max_rel_diff(outs[base], outs[s]):.1e}; "
               f"load {os.getloadavg()[0]:.1f}", flush=True)
 
 
@@ -171,8 +182,8 @@ def main():
     if any(p.startswith("point") for p in args.programs):
         programs.update(point_programs())
     for name in args.programs:
-        lowered, run = lowered_of(name, programs)
-        measure(name, lowered, run, sets, args.rounds, args.repeat)
+        lower, run = lowered_of(name, programs)
+        measure(name, lower, run, sets, args.rounds, args.repeat)
 
 
 if __name__ == "__main__":

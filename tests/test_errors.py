@@ -284,7 +284,11 @@ _LAPACK_PROBE = """
 import sys
 import jax, jax.numpy as jnp
 import jaxroll
-from jaxroll import _compilation_cache
+from jaxroll import _compilation_cache, _xla_options
+
+hits = []
+jax.monitoring.register_event_listener(lambda name, **kw: hits.append(name == "/jax/compilation_cache/cache_hits"))
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)  # store even this tiny program
 
 @jax.jit
 def solve(a, b):  # a LAPACK kernel (triangular solve), as in the contact solver's GMRES
@@ -292,7 +296,8 @@ def solve(a, b):  # a LAPACK kernel (triangular solve), as in the contact solver
 
 a = jnp.tril(jnp.arange(1.0, 17.0).reshape(4, 4)) + 4 * jnp.eye(4)
 x = _compilation_cache.call(solve, a, jnp.arange(1.0, 5.0))
-print(repr(float(jnp.max(jnp.abs(a @ x - jnp.arange(1.0, 5.0))))), len(list(_compilation_cache.programs_directory().glob("*.pkl"))))
+print(repr(float(jnp.max(jnp.abs(a @ x - jnp.arange(1.0, 5.0))))), len(list(_compilation_cache.programs_directory().glob("*.pkl"))),
+      sum(hits), bool(_xla_options.compiler_options()))
 """
 
 
@@ -300,17 +305,22 @@ def test_second_process_runs_a_stored_program_with_a_lapack_kernel(tmp_path):
     """A new process that loads a stored program lowers nothing, so jaxlib's LAPACK kernels were
     never prepared there: running one crashed the process (a segmentation fault) until
     :func:`jaxroll._compilation_cache.call` prepares them. Two real processes, the second loading
-    what the first stored; the solve's residual is at rounding (exact system, 4 x 4)."""
+    what the first stored; the solve's residual is at rounding (exact system, 4 x 4). The program
+    is compiled with jaxroll's XLA options (the suite's XLA_FLAGS left out), which are part of
+    JAX's cache key: the second process finds the first one's compiled program."""
     script = tmp_path / "probe.py"
     script.write_text(_LAPACK_PROBE)
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COMPILATION", "JAXROLL_"))}
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COMPILATION", "JAXROLL_", "XLA_FLAGS"))}
     env |= {"JAXROLL_COMPILATION_CACHE": str(tmp_path / "cache"),
             "PYTHONPATH": str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")}
+    hits = []
     for _ in range(2):
         out = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=300)
         assert out.returncode == 0, out.stderr[-2000:]
-        residual, stored = out.stdout.split()[-2:]
-        assert float(residual) < 1e-12 and stored == "1"
+        residual, stored, hit, options = out.stdout.split()[-4:]
+        assert float(residual) < 1e-12 and stored == "1" and options == "True"
+        hits.append(int(hit))
+    assert hits[1] > hits[0]  # the second process loads the compiled program
 
 
 def test_import_before_jax_quiets_xla_log_only_with_the_cache_on():
