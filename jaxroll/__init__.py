@@ -46,6 +46,7 @@ from ._numerics import PlausibilityWarning
 from .geometry import Geometry
 from .result import RESULTS, GridSolution, RollingResult, SolverError, ValidityWarning
 from .rolling import rolling_resistance, rolling_resistance_grid
+from ._xla_options import compiler_options
 from .sweep import Grid, sweep, sweep_mesh  # (eager: the name sweep is both a module and a function)
 
 # --- identification: DMA -> master curve -> Prony, and fits to rolling data ----------------
@@ -102,7 +103,7 @@ __all__ = [
     # front doors and results
     "rolling_resistance", "rolling_resistance_grid", "sweep", "sweep_mesh", "Grid", "resistance_map",
     "ResistanceMap", "RollingResult", "GridSolution", "RESULTS", "Geometry", "SolverError", "ValidityWarning",
-    "PlausibilityWarning",
+    "PlausibilityWarning", "compiler_options",
     # identification
     "read_dma_sweeps", "fit_shift_factors", "fit_wlf", "master_curve", "fit_prony", "save_material",
     "load_material", "fit_material", "RollingData", "DMAData", "FitResult",

@@ -43,10 +43,20 @@ _OFF = ("0", "off", "false", "no")
 
 
 def compiler_options(platform: str | None = None, environ=None) -> dict | None:
-    """The XLA options for a program compiled for ``platform`` (default: JAX's default backend),
-    a new dict without the options that ``XLA_FLAGS`` sets; ``None`` where none is left (a
-    platform other than CPU, or ``JAXROLL_XLA_OPTIONS`` off; ``environ``: default ``os.environ``). For
-    ``jax.jit(f, compiler_options=...)`` or ``Lowered.compile(...)`` of a top-level program."""
+    """The XLA compile options jaxroll gives its own programs on ``platform`` (default: JAX's
+    default backend): a new dict, or ``None`` where there are none (not CPU, the switch
+    ``JAXROLL_XLA_OPTIONS=0``, or every option already set by the process's ``XLA_FLAGS``,
+    which keep their values; ``environ``: default ``os.environ``).
+
+    A program the user compiles around jaxroll's functions (a jitted gradient, a table under
+    ``jax.jit``) is the user's, with XLA's defaults; it compiles faster and runs as fast with
+    these options, given to the top-level ``jax.jit`` (JAX takes options there only)::
+
+        grad = jax.jit(jax.grad(loss), compiler_options=jaxroll.compiler_options())
+
+    The paper's reference case's gradient (``benchmarks/compile_options.py``) compiles in
+    0.68-0.82x the CPU time of XLA's defaults and runs as fast (within 3 %); the numbers change
+    by rounding only."""
     environ = os.environ if environ is None else environ
     if environ.get(ENV_VAR, "").strip().lower() in _OFF:
         return None
