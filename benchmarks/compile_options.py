@@ -17,10 +17,12 @@ difference of the outputs to those of XLA's defaults (0: bit for bit). Programs:
 - ``reference`` / ``reference-grad``: the paper's reference case table (23 speeds x 15 loads, 0.25 mm
   cells, infinite 30 mm layer; ``bench_sphere3d.py --H 0.03 --period none``) and its gradient with
   respect to (G0, tau, f, H), jitted by the caller;
-- ``point`` / ``point-grad``: one point of the default sphere method (``jr.default_method()``
+- ``point`` / ``point-grad``: one point of the default sphere method (``jaxroll.methods.default_method()``
   resolved for R = 2 cm, 100 N, 10 mm/s on a 30 mm layer) and its gradient;
 - ``map``: the largest program of ``jr.resistance_map`` of the shipped measured Prony material
-  (9 x 9 temperatures x speeds; ``bench_batched.py``'s map), captured from the library.
+  (9 x 9 temperatures x speeds; ``bench_batched.py``'s map), captured from the library;
+- ``--first-call``: instead, a new interpreter's first ``jr.rolling_resistance`` of the default
+  sphere point (import, grid sizing and compiles; no persistent cache), options on and off;
 """
 
 from __future__ import annotations
@@ -165,6 +167,36 @@ def measure(name, lower, run, sets, rounds, repeat):
               f"load {os.getloadavg()[0]:.1f}", flush=True)
 
 
+FIRST_CALL = r"""
+import json, time
+c0, w0 = time.process_time(), time.perf_counter()
+import jaxroll as jr
+r = jr.rolling_resistance(jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(0.03), radius=0.02, load=100.0, speed=0.01)
+print(json.dumps({"cpu": time.process_time() - c0, "wall": time.perf_counter() - w0, "value": float(r.value)}))
+"""
+
+
+def first_calls(rounds):
+    """A new user's first call of the default sphere point in a new interpreter (import, grid
+    sizing, compiles; no persistent cache, no ``XLA_FLAGS``), with jaxroll's options and without
+    (``JAXROLL_XLA_OPTIONS=0``), alternating."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = str(Path(__file__).resolve().parent.parent)
+    for _ in range(rounds):
+        for switch in ("1", "0"):
+            env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+            env |= {"JAXROLL_COMPILATION_CACHE": "0", "JAXROLL_XLA_OPTIONS": switch, "TF_CPP_MIN_LOG_LEVEL": "3",
+                    "PYTHONPATH": os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))}
+            out = json.loads(subprocess.run([sys.executable, "-c", FIRST_CALL], env=env, capture_output=True,
+                                            text=True, check=True).stdout.strip().splitlines()[-1])
+            print(f"first call, {'jaxroll options' if switch == '1' else 'XLA defaults  '}: {out['cpu']:5.2f} s CPU "
+                  f"({out['wall']:5.2f} s wall); R_r = {out['value']!r} N; load {os.getloadavg()[0]:.1f}", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--programs", nargs="+", default=["reference", "reference-grad", "point", "point-grad", "map"])
@@ -172,7 +204,11 @@ def main():
                     choices=list(OPTION_SETS))
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--first-call", action="store_true",
+                    help="only a new interpreter's first call of the default sphere point, options on and off")
     args = ap.parse_args()
+    if args.first_call:
+        return first_calls(args.rounds)
     sets = ["base"] + [s for s in args.sets if s != "base"]
     jax.config.update("jax_enable_compilation_cache", False)
     print(f"device: {jax.devices()[0].device_kind}; cpu count {os.cpu_count()}; load avg {os.getloadavg()[0]:.1f}")
