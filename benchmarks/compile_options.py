@@ -21,6 +21,10 @@ difference of the outputs to those of XLA's defaults (0: bit for bit). Programs:
   resolved for R = 2 cm, 100 N, 10 mm/s on a 30 mm layer) and its gradient;
 - ``map``: the largest program of ``jr.resistance_map`` of the shipped measured Prony material
   (9 x 9 temperatures x speeds; ``bench_batched.py``'s map), captured from the library;
+- ``fit``: the first evaluation (residuals and Jacobian) of ``jr.fit_material`` on the shipped
+  sphere benchmark (every 4th point; ``fit_profile.py --geometry sphere``), captured from the
+  library (the fit itself compiles it with XLA's defaults: it is not one of the programs that
+  take jaxroll's options);
 - ``--first-call``: instead, a new interpreter's first ``jr.rolling_resistance`` of the default
   sphere point (import, grid sizing and compiles; no persistent cache), options on and off;
 """
@@ -113,6 +117,37 @@ def map_program():
     return fn, args, static
 
 
+def fit_program(every=4):
+    """``(fn, args)`` of the first evaluation (residuals and Jacobian) of ``jr.fit_material`` on
+    the shipped sphere benchmark (``fit_profile.py --geometry sphere``; every ``every``-th point),
+    captured from the library: the fit is stopped there."""
+    from jaxroll.identify import fit as fit_module
+
+    data = fit_module.read_rolling_csv(jr.datasets.path("fit_sphere.csv"))
+    keep = np.arange(len(data.speed)) % every == 0
+    data = fit_module.RollingData(data.speed[keep], data.load[keep], data.value[keep], data.sigma[keep])
+    inner, seen = fit_module._residuals_and_jacobian_jit, []
+
+    class Captured(Exception):
+        pass
+
+    def capture(*args):
+        seen.append(args)
+        raise Captured
+
+    fit_module._residuals_and_jacobian_jit = capture
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit_module.fit_material(data, initial=jr.StandardLinearSolid(G0=2e6, tau=0.35, f=0.7),
+                                    layer=jr.Layer(H=float("inf")), radius=0.02, geometry="sphere", absolute_sigma=True)
+    except Captured:
+        pass
+    finally:
+        fit_module._residuals_and_jacobian_jit = inner
+    return inner, seen[0], {}
+
+
 def fn_text(fn, args, static):
     return fn.lower(*args, **static).as_text()
 
@@ -120,8 +155,8 @@ def fn_text(fn, args, static):
 def lowered_of(name, programs):
     """``(lower, run)``: a function that lowers the program anew (after ``jax.clear_caches``, so
     that no compilation is served from JAX's in-memory caches) and one that runs a compiled one."""
-    if name == "map":
-        fn, args, static = map_program()
+    if name in ("map", "fit"):
+        fn, args, static = map_program() if name == "map" else fit_program()
         return (lambda: fn.lower(*args, **static)), (lambda c: c(*args, **static))
     fn, args = programs[name]
     return (lambda: jax.jit(fn).lower(*args)), (lambda c: c(*args))
