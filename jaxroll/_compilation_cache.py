@@ -253,10 +253,9 @@ def call(fn, *args):
     run, out_tree = entry
     try:
         out = run(*[leaves[i] for i in dynamic])
-    except Exception:  # noqa: BLE001  (a stored program this JAX cannot run: fn itself from now on)
-        if out_tree is not None:
-            _memo[memo_key] = False
-        return fn(*args)  # (an in-process program's error: fn raises it with its own message)
+    except Exception:  # noqa: BLE001  (a program this JAX cannot run, or an error of the inputs:
+        _memo[memo_key] = False  # fn itself from now on, which raises such an error with its own message)
+        return fn(*args)
     return out if out_tree is None else jax.tree_util.tree_unflatten(out_tree, out)
 
 
