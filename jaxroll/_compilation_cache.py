@@ -246,6 +246,8 @@ def call(fn, *args):
     or the call is part of a user's ``jit``/``vmap``/``grad``, when the cache is off, or when a
     static value has no text that identifies it. Only for jaxroll's own functions: the key holds
     jaxroll's source, not the caller's."""
+    if programs_directory() is None:
+        return fn(*args)
     leaves, treedef = jax.tree_util.tree_flatten(args)
     if not _outside_traces() or any(isinstance(x, jax.core.Tracer) for x in leaves):
         return fn(*args)
