@@ -26,7 +26,7 @@ difference of the outputs to those of XLA's defaults (0: bit for bit). Programs:
   library (the fit itself compiles it with XLA's defaults: it is not one of the programs that
   take jaxroll's options);
 - ``--first-call``: instead, a new interpreter's first ``jr.rolling_resistance`` of the default
-  sphere point (import, grid sizing and compiles; no persistent cache), options on and off;
+  sphere point (import, grid sizing and compiles, an empty compilation cache), options on and off;
 """
 
 from __future__ import annotations
@@ -213,21 +213,24 @@ print(json.dumps({"cpu": time.process_time() - c0, "wall": time.perf_counter() -
 
 def first_calls(rounds):
     """A new user's first call of the default sphere point in a new interpreter (import, grid
-    sizing, compiles; no persistent cache, no ``XLA_FLAGS``), with jaxroll's options and without
-    (``JAXROLL_XLA_OPTIONS=0``), alternating."""
+    sizing, compiles, storing the programs in an empty compilation cache; no ``XLA_FLAGS``), with
+    jaxroll's options and without (``JAXROLL_XLA_OPTIONS=0``), alternating."""
     import json
     import subprocess
     import sys
+    import tempfile
     from pathlib import Path
 
     root = str(Path(__file__).resolve().parent.parent)
     for _ in range(rounds):
         for switch in ("1", "0"):
-            env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-            env |= {"JAXROLL_COMPILATION_CACHE": "0", "JAXROLL_XLA_OPTIONS": switch, "TF_CPP_MIN_LOG_LEVEL": "3",
-                    "PYTHONPATH": os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))}
-            out = json.loads(subprocess.run([sys.executable, "-c", FIRST_CALL], env=env, capture_output=True,
-                                            text=True, check=True).stdout.strip().splitlines()[-1])
+            env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR")}
+            with tempfile.TemporaryDirectory(prefix="jaxroll-first-call-") as cache:
+                env |= {"JAXROLL_COMPILATION_CACHE": cache, "JAXROLL_XLA_OPTIONS": switch,
+                        "TF_CPP_MIN_LOG_LEVEL": "3",
+                        "PYTHONPATH": os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))}
+                out = json.loads(subprocess.run([sys.executable, "-c", FIRST_CALL], env=env, capture_output=True,
+                                                text=True, check=True).stdout.strip().splitlines()[-1])
             print(f"first call, {'jaxroll options' if switch == '1' else 'XLA defaults  '}: {out['cpu']:5.2f} s CPU "
                   f"({out['wall']:5.2f} s wall); R_r = {out['value']!r} N; load {os.getloadavg()[0]:.1f}", flush=True)
 

@@ -15,8 +15,10 @@ later process loads it instead of compiling it again; tracing the Python code st
   ``jax.config.update("jax_compilation_cache_dir", ...)`` before ``import jaxroll``) is left
   as it is, together with JAX's other cache settings.
 * Programs that took at least :data:`MIN_COMPILE_TIME` to compile are stored, about 1 MB each
-  (one per method, geometry and input shapes, and per JAX version); the directory is not
-  trimmed (JAX's size cap needs the ``filelock`` package) and may be deleted at any time.
+  (one per method, geometry and input shapes, and per JAX version); JAX keeps the directory
+  under :data:`MAX_CACHE_BYTES`, evicting the least recently used programs (its size cap uses
+  the ``filelock`` package, a dependency of jaxroll; without it the directory is not trimmed).
+  The directory may be deleted at any time.
 * It takes effect if ``import jaxroll`` comes before the process's first compilation (JAX
   decides once per process whether it uses the cache).
 * On some x86 processors XLA logs three lines for each program it loads from the cache
@@ -34,14 +36,16 @@ before it finds one (about a second for a full-model point). :func:`call` remove
 the front doors and the automatic grid's sizing programs: it stores each one's lowered program
 (StableHLO, ``jax.export``) in :data:`PROGRAMS` inside the cache directory, one file per static
 configuration and input shapes, and a later process loads it and compiles it, which JAX's cache
-then finds. The key of a file holds everything the lowered program depends on: jaxroll's source
+then finds. The folder is kept under :data:`MAX_LOWERED_BYTES`: storing a program removes the
+least recently used ones beyond it (a loaded file counts as used). The key of a file holds everything the lowered program depends on: jaxroll's source
 files, the versions of JAX, jaxlib, equinox, NumPy, SciPy and Python, JAX's platform and tracing
 settings (``jax_enable_x64``, dtype promotion, ...), the function, the exact text of every static
 argument and pytree node (fully qualified types; a value without an exact text, e.g. a function,
 is not stored), and the shapes, dtypes and weak types of the array inputs. The numbers are those
 of the traced program bit for bit (the same StableHLO, compiled the same way: a top-level program
-with jaxroll's XLA options, :mod:`jaxroll._xla_options`; a program that is not stored is compiled
-so too, in the process). Calls under a
+with jaxroll's XLA options, :mod:`jaxroll._xla_options`; a program that cannot be stored is
+compiled so too, in the process; with the cache off the function runs itself, with XLA's
+defaults). Calls under a
 user's ``jit``/``vmap``/``grad`` (traced inputs, or any trace under way) run the function itself,
 so transformations see the original program. A file that is absent, unreadable or of another
 key is written anew; a stored program that does not run leaves the function to run itself.
@@ -61,7 +65,8 @@ import jax
 
 from ._xla_options import compiler_options
 
-__all__ = ["ENV_VAR", "MIN_COMPILE_TIME", "cache_directory", "enable", "processor_tag"]
+__all__ = ["ENV_VAR", "MAX_CACHE_BYTES", "MAX_LOWERED_BYTES", "MIN_COMPILE_TIME", "cache_directory", "enable",
+           "processor_tag"]
 
 #: Environment variable: ``0``/``off``/``false``/``no`` switches the cache off, any other
 #: non-empty value is the cache directory.
@@ -73,6 +78,14 @@ ENV_VAR = "JAXROLL_COMPILATION_CACHE"
 #: 1.65 s (measured 2026-11-26, 2 shared cores); jax's eager one-operation programs (0.01-0.09 s)
 #: stay out, each stored program costing a file read.
 MIN_COMPILE_TIME = 0.1
+
+#: Size cap [bytes] of JAX's compiled programs in the cache directory (least recently used ones
+#: are evicted beyond it; ~1 MB per program: about a thousand front-door programs).
+MAX_CACHE_BYTES = 1 << 30
+
+#: Size cap [bytes] of the lowered programs' folder :data:`PROGRAMS` (10-300 kB per program;
+#: every edit of jaxroll's source or new JAX version writes new ones).
+MAX_LOWERED_BYTES = 64 << 20
 
 _OFF = ("0", "off", "false", "no")
 
@@ -115,6 +128,11 @@ def enable(environ=None) -> Path | None:
         return None
     jax.config.update("jax_compilation_cache_dir", str(directory))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_TIME)
+    try:
+        import filelock  # noqa: F401  (JAX's size cap needs it)
+    except ImportError:
+        return directory
+    jax.config.update("jax_compilation_cache_max_size", MAX_CACHE_BYTES)
     return directory
 
 
@@ -233,6 +251,8 @@ def call(fn, *args):
     or the call is part of a user's ``jit``/``vmap``/``grad``, when the cache is off, or when a
     static value has no text that identifies it. Only for jaxroll's own functions: the key holds
     jaxroll's source, not the caller's."""
+    if programs_directory() is None:
+        return fn(*args)
     leaves, treedef = jax.tree_util.tree_flatten(args)
     if not _outside_traces() or any(isinstance(x, jax.core.Tracer) for x in leaves):
         return fn(*args)
@@ -352,6 +372,7 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
             stored = pickle.load(fh)
         if stored["key"] == key and _prepare_custom_calls(stored["custom_calls"]):
             exported = stored["exported"]
+            os.utime(path)  # used: the last to go when the folder is trimmed
             return jax.jit(exported.call, compiler_options=compiler_options()), jax.tree_util.tree_structure(
                 stored["outputs"])
     except Exception:  # noqa: BLE001  (absent, unreadable or from another version: lower anew)
@@ -381,7 +402,30 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_bytes(blob)
         os.replace(tmp, path)
+        _trim(directory, MAX_LOWERED_BYTES)
     except Exception as err:  # noqa: BLE001  (an unexportable program or an unwritable folder: run fn itself)
         logging.getLogger("jaxroll").debug("not storing the lowered program of %s: %s", _qualname_of(fn), err)
         return False
     return jax.jit(exported.call, compiler_options=compiler_options()), structure[0]
+
+
+def _trim(directory: Path, limit: int) -> None:
+    """Remove the least recently used (oldest modification time) stored programs of ``directory``
+    until the rest fit in ``limit`` bytes. Another process may remove the same files at the same
+    time: a file already gone is skipped."""
+    files = []
+    for path in directory.glob("*.pkl"):
+        try:
+            stat = path.stat()
+        except OSError:
+            continue
+        files.append((stat.st_mtime, stat.st_size, path))
+    total = sum(size for _, size, _ in files)
+    for _, size, path in sorted(files, key=lambda f: f[0]):
+        if total <= limit:
+            break
+        try:
+            path.unlink()
+        except OSError:
+            pass
+        total -= size

@@ -126,7 +126,7 @@ _PROBE = textwrap.dedent("""
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)  # store even a tiny program
     mat = jr.StandardLinearSolid(3e6, 0.25, 1.0)
     jax.block_until_ready(jax.jit(lambda w: jr.materials.storage_modulus(mat, w))(jax.numpy.linspace(1.0, 2.0, 7)))
-    print(json.dumps({"dir": jax.config.jax_compilation_cache_dir,
+    print(json.dumps({"dir": jax.config.jax_compilation_cache_dir, "cap": jax.config.jax_compilation_cache_max_size,
                       "hits": events.count("/jax/compilation_cache/cache_hits")}))
 """)
 
@@ -152,6 +152,7 @@ def test_second_process_loads_the_compiled_program_from_the_cache(tmp_path):
     first = _probe({"JAXROLL_COMPILATION_CACHE": str(cache)})
     files = sorted(p.name for p in cache.rglob("*") if p.is_file())
     assert Path(first["dir"]).parent == cache and files
+    assert first["cap"] == _compilation_cache.MAX_CACHE_BYTES  # JAX evicts beyond it (filelock is a dependency)
     second = _probe({"JAXROLL_COMPILATION_CACHE": str(cache)})
     assert second["hits"] > first["hits"]  # (the first may hit too: one program compiled twice)
     assert sorted(p.name for p in cache.rglob("*") if p.is_file()) == files  # nothing compiled anew
@@ -211,6 +212,28 @@ def test_lowered_program_is_stored_loaded_and_gives_the_same_bits(tmp_path, monk
     assert _same_bits(call(_scaled, x, f, "ccc"), _scaled(x, f, "ccc")) and len(_TRACES) == n + 1
 
 
+def test_lowered_programs_folder_keeps_the_recently_used_under_its_cap(tmp_path, monkeypatch):
+    """Storing a program trims the folder to its cap, least recently used first; loading a file
+    marks it used (its modification time), so it outlives older unused ones."""
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
+    x = jnp.linspace(0.1, 1.0, 5)
+    _forget(_scaled)
+    for i, label in enumerate(("a", "bb", "ccc")):
+        _compilation_cache.call(_scaled, x, jnp.asarray(2.0), label)
+        for path in tmp_path.glob("*.pkl"):  # a clear order, oldest first: a, bb, ccc
+            os.utime(path, (path.stat().st_mtime - 10.0,) * 2)
+    sizes = {p.name: p.stat().st_size for p in tmp_path.glob("*.pkl")}
+    assert len(sizes) == 3
+    _forget(_scaled)
+    _compilation_cache.call(_scaled, x, jnp.asarray(2.0), "a")  # loaded: "a" is now the most recent
+    first = sorted(tmp_path.glob("*.pkl"), key=lambda p: p.stat().st_mtime)
+    # a cap that holds two files of this size: the fourth program removes the two oldest, bb and ccc
+    monkeypatch.setattr(_compilation_cache, "MAX_LOWERED_BYTES", 2 * max(sizes.values()) + 1)
+    _compilation_cache.call(_scaled, x, jnp.asarray(2.0), "dddd")
+    left = {p.name for p in tmp_path.glob("*.pkl")}
+    assert len(left) == 2 and first[-1].name in left and not {first[0].name, first[1].name} & left
+
+
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")
 def test_front_door_through_the_stored_program_gives_the_same_bits(tmp_path, monkeypatch):
     # the point as jr.rolling_resistance runs it with the stored programs on (the suite runs with
@@ -265,12 +288,13 @@ def test_xla_options_follow_the_platform_the_switch_and_xla_flags():
     assert opts("cpu", {"XLA_FLAGS": " ".join(f"--{k}=1" for k in _xla_options.CPU_OPTIONS)}) is None
 
 
-def test_xla_options_reach_the_program_and_switch_off(monkeypatch):
-    """:func:`jaxroll._compilation_cache.call` compiles a program that is not stored as a
+def test_xla_options_reach_the_program_and_switch_off(tmp_path, monkeypatch):
+    """:func:`jaxroll._compilation_cache.call` compiles a program that cannot be stored as a
     top-level program with jaxroll's XLA options: the optimised HLO is that of the options (here
     fusion emitters on, against the suite's ``XLA_FLAGS`` that turn them off); switched off, the
     function runs itself."""
-    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: None)
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
+    monkeypatch.setattr(_compilation_cache, "_lowered", lambda *a: False)  # as if it could not be stored
     monkeypatch.delenv("XLA_FLAGS", raising=False)
     monkeypatch.setattr(_xla_options, "CPU_OPTIONS", {"xla_cpu_use_fusion_emitters": True})
     x = jnp.linspace(0.1, 1.0, 64)
