@@ -44,8 +44,7 @@ argument and pytree node (fully qualified types; a value without an exact text, 
 is not stored), and the shapes, dtypes and weak types of the array inputs. The numbers are those
 of the traced program bit for bit (the same StableHLO, compiled the same way: a top-level program
 with jaxroll's XLA options, :mod:`jaxroll._xla_options`; a program that cannot be stored is
-compiled so too, in the process; with the cache off the function runs itself, with XLA's
-defaults). Calls under a
+compiled so too, in the process, and so is every program with the cache off). Calls under a
 user's ``jit``/``vmap``/``grad`` (traced inputs, or any trace under way) run the function itself,
 so transformations see the original program. A file that is absent, unreadable or of another
 key is written anew; a stored program that does not run leaves the function to run itself.
@@ -248,10 +247,11 @@ def call(fn, *args):
     process to call ``fn`` with a static configuration and input shapes stores the program
     (:func:`programs_directory`); later processes load and run it instead of tracing ``fn``. The
     numbers are those of ``fn`` (the same program). ``fn`` itself runs when an input is traced
-    or the call is part of a user's ``jit``/``vmap``/``grad``, when the cache is off, or when a
-    static value has no text that identifies it. Only for jaxroll's own functions: the key holds
+    or the call is part of a user's ``jit``/``vmap``/``grad``, or when neither the cache nor
+    compile options apply; with the cache off, or for a static value without an identifying text,
+    ``fn`` compiles in the process as a top-level program with jaxroll's compile options. Only for jaxroll's own functions: the key holds
     jaxroll's source, not the caller's."""
-    if programs_directory() is None:
+    if programs_directory() is None and compiler_options() is None:
         return fn(*args)
     leaves, treedef = jax.tree_util.tree_flatten(args)
     if not _outside_traces() or any(isinstance(x, jax.core.Tracer) for x in leaves):

@@ -11,7 +11,7 @@ options shorten that without slowing the programs (measured by
 
 They are *per-program* options (``jax.jit(...).lower(...).compile(options)``): they apply to the
 executables jaxroll compiles itself when a front door is called eagerly (the stored programs of
-:func:`jaxroll._compilation_cache.call`, with the compilation cache on; the maps' and buckets'
+:func:`jaxroll._compilation_cache.call`, stored or compiled in the process; the maps' and buckets'
 ahead-of-time programs; ``jaxroll reproduce``'s), never to
 the user's other programs, and never to a program the user traces (inside a user's ``jax.jit``,
 ``jax.grad`` or ``jax.vmap``, jaxroll's functions are part of the user's program, whose options

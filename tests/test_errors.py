@@ -290,9 +290,9 @@ def test_xla_options_follow_the_platform_the_switch_and_xla_flags():
 
 def test_xla_options_reach_the_program_and_switch_off(tmp_path, monkeypatch):
     """:func:`jaxroll._compilation_cache.call` compiles a program that cannot be stored as a
-    top-level program with jaxroll's XLA options: the optimised HLO is that of the options (here
-    fusion emitters on, against the suite's ``XLA_FLAGS`` that turn them off); switched off, the
-    function runs itself."""
+    top-level program with jaxroll's XLA options, and so every program with the cache off: the
+    optimised HLO is that of the options (here fusion emitters on, against the suite's
+    ``XLA_FLAGS`` that turn them off); switched off, the function runs itself."""
     monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
     monkeypatch.setattr(_compilation_cache, "_lowered", lambda *a: False)  # as if it could not be stored
     monkeypatch.delenv("XLA_FLAGS", raising=False)
@@ -305,6 +305,13 @@ def test_xla_options_reach_the_program_and_switch_off(tmp_path, monkeypatch):
     text = _hlo(lowered.compile())
     assert text == _hlo(lowered.compile({"xla_cpu_use_fusion_emitters": True}))
     assert text != _hlo(lowered.compile({"xla_cpu_use_fusion_emitters": False}))
+    # the compilation cache off: the same in-process program with the options
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: None)
+    _forget(_sines)
+    assert float(_compilation_cache.call(_sines, x)) == pytest.approx(float(_sines(x)), rel=1e-14)
+    (run, _), = [v for k, v in _compilation_cache._memo.items() if k[0] is _sines]
+    assert _hlo(run.lower(x).compile()) == text
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
     monkeypatch.setenv("JAXROLL_XLA_OPTIONS", "0")
     _forget(_sines)
     assert float(_compilation_cache.call(_sines, x)) == float(_sines(x))
