@@ -53,6 +53,7 @@ OPTION_SETS = {
     "emitters+O1": {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 1},
     "emitters+cheap": {"xla_cpu_use_fusion_emitters": False, "xla_llvm_disable_expensive_passes": True},
     "O1": {"xla_backend_optimization_level": 1},
+    "O2": {"xla_backend_optimization_level": 2},
     "cheap": {"xla_llvm_disable_expensive_passes": True},
 }
 
@@ -194,12 +195,17 @@ def measure(name, lower, run, sets, rounds, repeat):
             del compiled
     base = sets[0]
     c_base, r_base = statistics.median(comp[base]), statistics.median(run_cpu[base])
+    rows = []
     for s in sets:
         c, w = statistics.median(comp[s]), statistics.median(wall[s])
         t, tw = statistics.median(run_cpu[s]), statistics.median(runs[s])
+        diff = max_rel_diff(outs[base], outs[s])
         print(f"{name:15s} {s:15s} compile {c:6.2f} s CPU ({w:6.2f} s wall) = {c / c_base:4.2f}x; run {t:7.4f} s "
-              f"CPU ({tw:7.4f} s wall) = {t / r_base:4.2f}x; max rel diff {max_rel_diff(outs[base], outs[s]):.1e}; "
+              f"CPU ({tw:7.4f} s wall) = {t / r_base:4.2f}x; max rel diff {diff:.1e}; "
               f"load {os.getloadavg()[0]:.1f}", flush=True)
+        rows.append(dict(program=name, set=s, compile_cpu_s=c, compile_wall_s=w, run_cpu_s=t, run_wall_s=tw,
+                         max_rel_diff=diff))
+    return rows
 
 
 FIRST_CALL = r"""
@@ -222,6 +228,7 @@ def first_calls(rounds):
     from pathlib import Path
 
     root = str(Path(__file__).resolve().parent.parent)
+    rows = []
     for _ in range(rounds):
         for switch in ("1", "0"):
             env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR")}
@@ -233,6 +240,8 @@ def first_calls(rounds):
                                                 text=True, check=True).stdout.strip().splitlines()[-1])
             print(f"first call, {'jaxroll options' if switch == '1' else 'XLA defaults  '}: {out['cpu']:5.2f} s CPU "
                   f"({out['wall']:5.2f} s wall); R_r = {out['value']!r} N; load {os.getloadavg()[0]:.1f}", flush=True)
+            rows.append(dict(options=switch == "1", cpu_s=out["cpu"], wall_s=out["wall"], value=out["value"]))
+    return rows
 
 
 def main():
@@ -244,9 +253,22 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--first-call", action="store_true",
                     help="only a new interpreter's first call of the default sphere point, options on and off")
+    ap.add_argument("--record", action="store_true",
+                    help="store the rows in benchmarks/numbers.json (section compile_options, or "
+                    "compile_options_first_call with --first-call; benchmarks/render_docs.py draws the table)")
     args = ap.parse_args()
+    command = "python benchmarks/compile_options.py " + (
+        f"--first-call --rounds {args.rounds}" if args.first_call else
+        f"--programs {' '.join(args.programs)} --sets {' '.join(args.sets)} --rounds {args.rounds} "
+        f"--repeat {args.repeat}")
+    load_start = round(os.getloadavg()[0], 1)
     if args.first_call:
-        return first_calls(args.rounds)
+        rows = first_calls(args.rounds)
+        if args.record:
+            from _numbers import record
+
+            record("compile_options_first_call", {"command": command, "load_start": load_start, "rows": rows})
+        return
     sets = ["base"] + [s for s in args.sets if s != "base"]
     jax.config.update("jax_enable_compilation_cache", False)
     print(f"device: {jax.devices()[0].device_kind}; cpu count {os.cpu_count()}; load avg {os.getloadavg()[0]:.1f}")
@@ -255,9 +277,15 @@ def main():
         programs.update(reference_programs())
     if any(p.startswith("point") for p in args.programs):
         programs.update(point_programs())
+    rows = []
     for name in args.programs:
         lower, run = lowered_of(name, programs)
-        measure(name, lower, run, sets, args.rounds, args.repeat)
+        rows += measure(name, lower, run, sets, args.rounds, args.repeat)
+    if args.record:
+        from _numbers import record
+
+        record("compile_options", {"command": command, "load_start": load_start, "rows": rows,
+                                   "options": {s: OPTION_SETS[s] for s in sets}})
 
 
 if __name__ == "__main__":

@@ -182,6 +182,38 @@ def defaults_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def compile_options_table(numbers: dict) -> str:
+    """Compile and run CPU seconds of jaxroll's heavy programs per XLA option set, against XLA's
+    defaults (``compile_options.py --record``), and a new interpreter's first call."""
+    sec = numbers["compile_options"]
+    names = {"reference": "reference table (23 x 15, window 55)", "reference-grad": "its gradient (G0, tau, f, H)",
+             "point": "default sphere point", "point-grad": "its gradient (G0, tau, f, H)",
+             "map": "resistance map's largest program (9 x 9)", "fit": "sphere fit's evaluation (residuals, Jacobian)"}
+    base = {r["program"]: r for r in sec["rows"] if r["set"] == "base"}
+    lines = [f"`{sec['command']}`, {_machine(sec['measured'])}; {sec['load_start']:g} at the start of the run. "
+             "CPU seconds (process user + system), medians over the rounds, each compile from a fresh lowering; "
+             "\"max rel diff\": the outputs' largest relative difference to XLA's defaults. Option sets: "
+             + "; ".join(f"{s}: " + (", ".join(f"`{k}={v}`" for k, v in o.items()) or "XLA's defaults")
+                         for s, o in sec["options"].items()) + ".", "",
+             "| program | options | compile | vs defaults | run | vs defaults | max rel diff |",
+             "|---|---|---|---|---|---|---|"]
+    for r in sec["rows"]:
+        b = base[r["program"]]
+        lines.append(f"| {names.get(r['program'], r['program'])} | {r['set']} | {r['compile_cpu_s']:.2f} s | "
+                     f"{r['compile_cpu_s'] / b['compile_cpu_s']:.2f}x | {_time(r['run_cpu_s'])} | "
+                     f"{r['run_cpu_s'] / b['run_cpu_s']:.2f}x | {r['max_rel_diff']:.1e} |")
+    first = numbers.get("compile_options_first_call")
+    if first:
+        on = [r["cpu_s"] for r in first["rows"] if r["options"]]
+        off = [r["cpu_s"] for r in first["rows"] if not r["options"]]
+        span = lambda xs: f"{min(xs):.1f}" + (f"-{max(xs):.1f}" if max(xs) - min(xs) >= 0.05 else "")  # noqa: E731
+        lines += ["", f"A new interpreter's first call of the default sphere point (import, grid sizing, compiles, an "
+                  f"empty compilation cache; `{first['command']}`, {_machine(first['measured'])}): "
+                  f"**{span(on)} s CPU with jaxroll's options, {span(off)} s with XLA's defaults** "
+                  f"({len(on)} runs each, alternating)."]
+    return "\n".join(lines)
+
+
 def slowest_tests(numbers: dict) -> str:
     """The 25 slowest tests of the recorded clean-clone suite run (pytest's ``--durations``, wall
     seconds inside one pytest-xdist worker)."""
@@ -511,6 +543,7 @@ BLOCKS = {
     "batched-gpu-table": batched_gpu_table,
     "defaults-table": defaults_table,
     "slowest-tests": slowest_tests,
+    "compile-options": compile_options_table,
     "forms-convergence": forms_convergence,
     "default-grid-accuracy": default_grid_accuracy,
     "edge-smoothing": edge_smoothing,
