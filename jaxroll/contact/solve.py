@@ -199,7 +199,9 @@ def solve_contact(
             geometric overlap ``h < d``).
         warm_start: optional :class:`WarmStart` (a solved neighbour's contact set, pressure and
             penetration; :meth:`WarmStart.stretched`): where valid, it replaces
-            ``initial_contact`` and the uniform initial pressure. It changes the number of
+            ``initial_contact`` and the uniform initial pressure; with ``smoothing``, a start
+            flagged ``smoothed`` (a smoothed solution at nearby parameters) starts the damped
+            Newton iteration itself, without the exact solve. It changes the number of
             iterations, not the solution (to the tolerance).
         tol: tolerance on the scaled residual (the linear solves use ``1e-3 tol``, the implicit
             derivatives' tangent or adjoint solve ``tol``).
@@ -304,8 +306,10 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
     if smoothing is not None and warm is not None:
         # a smoothed start (WarmStart.smoothed) begins the damped Newton iteration itself: no exact solve
         kinds = jax.eval_shape(exact, None)
-        from_start = lambda _: jax.tree_util.tree_map(lambda k, v: jnp.asarray(v, k.dtype), kinds,  # noqa: E731
-                                                      (mask0, x_init, 0, True, False))
+
+        def from_start(_):  # (set, x, iterations, converged, robust) as find_contact_set returns them
+            return jax.tree_util.tree_map(lambda k, v: jnp.asarray(v, k.dtype), kinds, (mask0, x_init, 0, True, False))
+
         mask, x_exact, iters, done, robust = jax.lax.cond(warm.valid & warm.smoothed, from_start, exact, None)
     else:
         mask, x_exact, iters, done, robust = exact(None)
