@@ -22,8 +22,12 @@ layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
   adds the map's program before batching (``jax.vmap`` of ``value_and_grad`` of the front door);
 * ``jr.sweep H x20``: the front door over the same 20 thicknesses through ``jr.sweep``, chunks
   vectorised (default) and ``vectorize=False`` (points one after the other);
-* ``fit Jacobian``: ``jax.jacfwd`` of the table w.r.t. log(G0, tau, f) with the fit's default
-  model (``edge_smoothing = 0.5``), what ``jr.fit_material`` evaluates per Gauss-Newton step.
+* ``fit evaluation``: what ``jr.fit_material`` evaluates per least-squares step on the reference
+  case's grid and points (the table's speeds x loads as data, free log(G0, tau, f)): its compiled
+  residuals and per-point adjoint Jacobian (``jaxroll.identify.fit._residuals_and_jacobian_jit``:
+  ``Full.evaluate_points`` with the fit's default model, the smoothed edge at kappa and 2 kappa
+  extrapolated), cold (each point from its neighbour, a fit's first evaluation) and warm (each
+  point from its own solution at parameters 1 % away, as a fit's later evaluations start).
 
 Each program is compiled ahead of time (compile column), then the baseline and the entry are run
 alternately ``--repeat`` times in the same process (the machine is shared: both see the same
@@ -42,6 +46,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without install
 
+import equinox as eqx  # noqa: E402
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
@@ -104,20 +109,6 @@ def reference_rows(args, rows):
     def sweep_H(Hs, vectorize):
         return jr.sweep(lambda H: single(3e6, H, 100.0, 0.01), Hs, vectorize=vectorize)
 
-    fit_method = jr.Full(grid=method.grid, edge_smoothing=0.5)
-
-    def fit_jacobian(logp, P, V):
-        def values(lp):
-            G0, tau, f = jnp.exp(lp)
-            return jr.rolling_resistance_grid(jr.StandardLinearSolid(G0, tau, f), jr.Layer(0.03), radius=R, loads=P,
-                                              speeds=V, method=fit_method).value
-        return jax.jacfwd(values)(logp)
-
-    def fit_forward(logp, P, V):
-        G0, tau, f = jnp.exp(logp)
-        return jr.rolling_resistance_grid(jr.StandardLinearSolid(G0, tau, f), jr.Layer(0.03), radius=R, loads=P,
-                                          speeds=V, method=fit_method).value
-
     VV, PP = (x.ravel() for x in jnp.meshgrid(speeds, loads, indexing="ij"))
     base = (3e6, 0.03, loads, speeds)
     if args.only == "vmap":
@@ -129,9 +120,7 @@ def reference_rows(args, rows):
     h_c, c_pH = _compile(points_H, Hs)
     sv_c, c_sv = _compile(lambda Hs: sweep_H(Hs, True), Hs)
     ss_c, c_ss = _compile(lambda Hs: sweep_H(Hs, False), Hs)
-    lp = jnp.log(jnp.asarray([3e6, 0.25, 1.0]))
-    j_c, c_jac = _compile(fit_jacobian, lp, loads, speeds)
-    f_c, c_fwd = _compile(fit_forward, lp, loads, speeds)
+    fit_eval, c_fit = _fit_evaluation(method.grid, PP, VV, t_c(*base).ravel())
     rep = args.repeat
     t_table, t_single, t_points = _alternate([(t_c, base), (s_c, (3e6, 0.03, 100.0, 0.01)),
                                               (p_c, (3e6, 0.03, PP, VV))], rep)
@@ -139,7 +128,7 @@ def reference_rows(args, rows):
     t_table2, t_vmap, t_pH = _alternate([(t_c, base), (v_c, (Hs,)), (h_c, (Hs,))], rep)
     check_H = float(jnp.max(jnp.abs(h_c(Hs) / v_c(Hs) - 1)))
     t_table4, t_sv, t_ss = _alternate([(t_c, base), (sv_c, (Hs,)), (ss_c, (Hs,))], rep)
-    t_table3, t_jac, t_fwd = _alternate([(t_c, base), (j_c, (lp, loads, speeds)), (f_c, (lp, loads, speeds))], rep)
+    t_table3, t_cold, t_warm = _alternate([(t_c, base), (fit_eval, (False,)), (fit_eval, (True,))], rep)
     per = lambda t, k: t / k  # noqa: E731
     ref = statistics.median([per(t_table, n), per(t_table2, n), per(t_table3, n), per(t_table4, n)])
     size = f"{speeds.size}x{loads.size}, cells {cells * 1e3:g} mm, window {window}"
@@ -157,12 +146,48 @@ def reference_rows(args, rows):
          f"front door per point: {t_sv:.3f} s"),
         ("jr.sweep H x20 (vectorize=False)", per(t_ss, 20), c_ss, per(t_ss, 20) / per(t_table4, n),
          f"front door per point, one after the other: {t_ss:.3f} s"),
-        ("fit forward (the table, edge_smoothing 0.5)", per(t_fwd, n), c_fwd, per(t_fwd, n) / per(t_table3, n),
-         f"{t_fwd:.2f} s per table of {n} points"),
-        ("fit Jacobian (jacfwd of the table, 3 params)", per(t_jac, n), c_jac, per(t_jac, n) / per(t_table3, n),
-         f"edge_smoothing 0.5; {t_jac:.2f} s per Jacobian of {n} points ({t_jac / t_fwd:.1f}x its forward table)"),
+        ("fit evaluation, cold (r and per-point adjoint J, 3 params)", per(t_cold, n), c_fit,
+         per(t_cold, n) / per(t_table3, n),
+         f"the fit's program on the table's {n} points, smoothed edge at kappa and 2 kappa extrapolated; "
+         f"{t_cold:.2f} s per evaluation"),
+        ("fit evaluation, warm (each point from its solution 1 % away)", per(t_warm, n), 0.0,
+         per(t_warm, n) / per(t_table3, n),
+         f"the same program: {t_warm:.2f} s per evaluation; {fit_eval.check}"),
     ]
     return ref
+
+
+def _fit_evaluation(grid, P, V, values):
+    """``(call, compile seconds)``: ``call(warm)`` runs the fit's compiled residual and Jacobian
+    (:func:`jaxroll.identify.fit._residuals_and_jacobian_jit`, the fit's default model on
+    ``grid``) at the paper's material with the points ``(P, V)`` as data (``values``, 2 %
+    sigma), cold (no starts) or warm (each point from its solution at log-parameters 1 % away);
+    ``call.check`` states how far the warm evaluation is from the cold one."""
+    from jaxroll.identify.fit import (RollingData, _data_arrays, _Params, _point_starts, _Problem,
+                                      _residuals_and_jacobian_jit)
+    from jaxroll.methods import default_method
+
+    method = eqx.tree_at(lambda m: m.grid, default_method("sphere", fit=True), grid)
+    data = RollingData(np.asarray(V), np.asarray(P), np.asarray(values), 0.02 * np.asarray(values))
+    model = (MAT, jr.Layer(0.03), None)
+    params = _Params.of(model, ("G0", "tau", "f"), None)
+    problem = _Problem.of(params, R, "sphere", method, None)
+    arrays = _data_arrays(data, None, method)
+    lp = jnp.asarray(params.logp0(model))
+    none = _point_starts(problem, model, arrays)
+    t = time.perf_counter()
+    jax.block_until_ready(_residuals_and_jacobian_jit(lp, model, arrays, problem, none))
+    comp = time.perf_counter() - t  # compile and one evaluation
+    near = _residuals_and_jacobian_jit(lp + 0.01, model, arrays, problem, none)[2]
+
+    def call(warm):
+        return _residuals_and_jacobian_jit(lp, model, arrays, problem, near if warm else none)
+
+    cold, warm = call(False), call(True)
+    dr = float(jnp.max(jnp.abs(warm[0] - cold[0])))
+    dJ = float(jnp.max(jnp.abs(warm[1] - cold[1])) / jnp.max(jnp.abs(cold[1])))
+    call.check = f"max |r warm - r cold| {dr:.1e} sigma, max |J warm - J cold| {dJ:.1e} of max |J|"
+    return call, comp
 
 
 def map_rows(args, rows):

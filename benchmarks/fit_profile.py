@@ -37,9 +37,9 @@ def main():
     evaluations, seconds, per_window = [0], [0.0], {}
     inner = fit_module._residuals_and_jacobian_jit
 
-    def counted(logp, model, data, problem):
+    def counted(logp, model, data, problem, *starts):
         t = time.process_time()
-        out = jax.block_until_ready(inner(logp, model, data, problem))
+        out = jax.block_until_ready(inner(logp, model, data, problem, *starts))
         evaluations[0] += 1
         seconds[0] += time.process_time() - t
         row = per_window.setdefault(problem.method.grid.window, [0, []])

@@ -363,7 +363,7 @@ class Full(_GridMethod):
         return jax.lax.scan(one_speed, _contact.WarmStart.none(shape), speeds)[1]
 
     def evaluate_points(self, material, layer, R, P, V, geometry, *, axes=(0, 0, 0, 0, 0), order=None, count=None,
-                        adjoint=False, builder=None):
+                        adjoint=False, builder=None, starts=None):
         """``R_r`` at ``n`` points (arguments batched or shared as in
         :meth:`AbstractMethod.evaluate_points`), solved one after the other in a ``lax.scan``
         along ``order`` (default: as given; ``count``, a traced integer: only the first
@@ -381,13 +381,22 @@ class Full(_GridMethod):
         solve, :func:`_value_by_adjoint`) that every tangent direction shares: forward-mode
         derivatives along ``k`` directions (``jax.vmap`` of ``jax.jvp``) then cost one solve per
         point instead of ``k``. ``builder``: the ``V -> kernel`` of the shared material and layer
-        (``model.kernel_builder``), if the caller formed it (:func:`jaxroll.maps._map_program`)."""
+        (``model.kernel_builder``), if the caller formed it (:func:`jaxroll.maps._map_program`).
+
+        ``starts``: ``None``, or each point's own start ``(warm, sizes)`` (batched along the points
+        as given: a :class:`jaxroll.contact.WarmStart` and the counting sizes it was solved at),
+        e.g. the ``finals`` of a previous call at nearby parameters on the same grid (a fit's
+        previous evaluation). A valid start, stretched by the ratio of the counting sizes,
+        replaces the previous point's; a smoothed-edge solution (``edge_smoothing``) starts the
+        smoothed edge's Newton iteration itself (no exact solve). Then the return is
+        ``(results, finals)``, ``finals`` each point's own solution as such a start."""
         model = _FULL_MODELS[geometry]
         args = (material, layer, R, P, V)
         n = _batch_size(args, axes)
         if order is not None:
             order = jnp.asarray(order)
             args = _take(args, axes, order)
+            starts = None if starts is None else jax.tree_util.tree_map(lambda x: x[order], starts)
         at = functools.partial(_take, args, axes)  # the point at an index
 
         def size_and_load(i):
@@ -409,11 +418,17 @@ class Full(_GridMethod):
             s = self._solve(model, kernel, r, p, size, init=start)
             return self._result(model, s, l, v, m), s.contact
 
+        smoothed = self.edge_smoothing is not None
+
         def solve(start, xs):
             i, s_next, r_next = xs
+            if starts is not None:  # the point's own start, where it has one
+                own = jax.tree_util.tree_map(lambda x: x[i], starts[0]).stretch(sizes[i] / starts[1][i], 1.0)
+                start = jax.tree_util.tree_map(lambda a, b: jnp.where(own.valid, a, b), own, start)
             args = (start, *at(i), sizes[i])
             res, contact = _value_by_adjoint(point, args) if adjoint else point(*args)
-            return _contact.WarmStart.stretched(contact, s_next, r_next), res
+            nxt = _contact.WarmStart.stretched(contact, s_next, r_next)
+            return nxt, res if starts is None else (res, _contact.WarmStart.of(contact, smoothed))
 
         def step(start, xs):
             if count is None:
@@ -423,10 +438,12 @@ class Full(_GridMethod):
 
         shape = (self.grid.window,) * self.grid_ndim(geometry)
         out = jax.lax.scan(step, _contact.WarmStart.none(shape), (jnp.arange(n), stretch, ratio))[1]
-        if order is None:
-            return out
-        inverse = jnp.zeros(n, order.dtype).at[order].set(jnp.arange(n, dtype=order.dtype))
-        return jax.tree_util.tree_map(lambda x: x[inverse], out)
+        if starts is not None:
+            out = (out[0], (out[1], sizes))
+        if order is not None:
+            inverse = jnp.zeros(n, order.dtype).at[order].set(jnp.arange(n, dtype=order.dtype))
+            out = jax.tree_util.tree_map(lambda x: x[inverse], out)
+        return out
 
 
 def _value_by_adjoint(point, args):

@@ -248,7 +248,7 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     Jacobian, so the refit compiles nothing; nor, from the persistent compilation cache, does a
     later process (the program holds no host callback). Here the grids resolved at G0 = 2.7 and
     3.3 MPa over the reduced set (the second one's cells 10 % smaller: a0 ~ G0^-1/2)."""
-    from jaxroll.identify.fit import _data_arrays, _Params, _Problem, _residuals_and_jacobian_jit
+    from jaxroll.identify.fit import _data_arrays, _Params, _point_starts, _Problem, _residuals_and_jacobian_jit
 
     data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
     auto = default_method("cylinder", fit=True)
@@ -263,9 +263,20 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     assert m1.grid.window == m2.grid.window
     assert float(m2.grid.spacing) / float(m1.grid.spacing) == pytest.approx((2.7 / 3.3) ** 0.5, rel=0.02)
     arrays, lp = _data_arrays(data, None, m1), jnp.asarray(lp1)
-    r1 = np.asarray(_residuals_and_jacobian_jit(lp, model1, arrays, p1)[0])  # compiled by the fits above
+    starts = _point_starts(p1, model1, arrays)  # as the fits call it: no start yet
+    r1, J1, finals, failed = _residuals_and_jacobian_jit(lp, model1, arrays, p1, starts)  # compiled by the fits above
+    r1 = np.asarray(r1)
+    # a later evaluation starts each point's smoothed-edge Newton iteration from its solution at
+    # the previous one (no exact solve): the same residuals and Jacobian to the solver tolerances
+    # (contact tol 1e-10 on the scaled residual; derivative solves 1e-8, TANGENT_RTOL)
+    assert np.all(np.asarray(finals[0].smoothed)) and not np.any(failed)
+    near = _residuals_and_jacobian_jit(lp + 0.02, model1, arrays, p1, starts)[2]
+    r_w, J_w, _, failed_w = _residuals_and_jacobian_jit(lp, model1, arrays, p1, near)
+    assert not np.any(failed_w)
+    np.testing.assert_allclose(np.asarray(r_w), r1, rtol=0, atol=1e-6)  # sigma units: R_r within 2e-8
+    np.testing.assert_allclose(np.asarray(J_w), np.asarray(J1), rtol=0, atol=1e-6 * float(np.max(np.abs(J1))))
     out = []
-    assert compilations(caplog, lambda: out.append(_residuals_and_jacobian_jit(lp, model1, arrays, p2))) == 0
+    assert compilations(caplog, lambda: out.append(_residuals_and_jacobian_jit(lp, model1, arrays, p2, starts))) == 0
     # the same material on the second grid: a new cell size was used (another discretisation
     # error), and both agree within the grid rule's 0.5 % each (residuals in units of
     # sigma = 2 % of R_r: 1 % is 0.5)
@@ -273,4 +284,4 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     assert 0 < np.max(np.abs(r2 - r1)) < 0.5
     # no host callback (on a layer without inertia the input rules hold by construction), so
     # JAX's persistent compilation cache keeps the program for the next process
-    assert "callback" not in _residuals_and_jacobian_jit.lower(lp, model1, arrays, p1).as_text()
+    assert "callback" not in _residuals_and_jacobian_jit.lower(lp, model1, arrays, p1, starts).as_text()

@@ -145,8 +145,8 @@ def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol,
     def tangent_solve(g, y):
         return jax.lax.custom_linear_solve(
             mv, y,
-            solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(False), TANGENT_RTOL, robust)[0],
-            transpose_solve=lambda f, bb: solver.solve_tracked(f, bb, None, M(True), TANGENT_RTOL, robust)[0],
+            solve=lambda f, bb: solver.solve_derivative(f, bb, M(False), TANGENT_RTOL),
+            transpose_solve=lambda f, bb: solver.solve_derivative(f, bb, M(True), TANGENT_RTOL),
         )
 
     x = jax.lax.custom_root(lambda v: _residual(system, v, c0_ratio, eps / system.g_s)[0], x_s,

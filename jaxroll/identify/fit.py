@@ -41,10 +41,12 @@ import numpy as np
 
 from .._lsq import Z95, gauss_newton_distance, least_squares
 from .._numerics import check_plausible, input_checks
+from ..contact import WarmStart
 from ..engines.layer import is_quasistatic
 from ..engines.stack import Stack, cover_path, cover_thickness, with_cover_material
 from ..io import UNITS, Column, DataWarning, read_table
 from ..materials.material import GeneralizedMaxwell, StandardLinearSolid, at_temperature, complex_modulus
+from ..result import RESULTS
 
 __all__ = [
     "DMAData",
@@ -484,7 +486,7 @@ def _residuals(logp, model, data, problem):
 
 
 @eqx.filter_jit
-def _residuals_and_jacobian_jit(logp, model, data, problem):
+def _residuals_and_jacobian_jit(logp, model, data, problem, starts=None):
     """``(r, dr/dlogp)``: per point in reverse mode for a full model's rolling data alone
     (:func:`_per_point_jacobian`), else forward mode (``k`` tangents for ``k`` free parameters),
     or central differences with step ``problem.jac_step`` in the log-parameters (``2k`` further
@@ -497,15 +499,19 @@ def _residuals_and_jacobian_jit(logp, model, data, problem):
     compilation cache keeps it (:mod:`jaxroll._compilation_cache`): a later process fitting data
     of the same shape on a grid of the same window loads it instead of compiling. With a layer
     with inertia or a :class:`jaxroll.Stack` (the supersonic rule depends on the fitted modulus)
-    the rules are checked inside."""
+    the rules are checked inside.
+
+    ``starts``: ``None``, or (per-point Jacobian only, :func:`_point_starts`) each point's start
+    for its contact solves; then the return is ``(r, J, finals, failed)``, ``finals`` the starts
+    at ``logp`` (the next evaluation's), ``failed`` where a point's solver did not converge."""
     with input_checks(not is_quasistatic(model[1])):
-        return _residuals_and_jacobian(logp, model, data, problem)
+        return _residuals_and_jacobian(logp, model, data, problem, starts)
 
 
-def _residuals_and_jacobian(logp, model, data, problem):
+def _residuals_and_jacobian(logp, model, data, problem, starts=None):
     """The body of :func:`_residuals_and_jacobian_jit`."""
     if problem.jac_step is None and _per_point(model, data, problem):
-        return _per_point_jacobian(logp, model, data, problem)
+        return _per_point_jacobian(logp, model, data, problem, starts)
     if problem.jac_step is None:
         def f(lp):
             r = _residuals(lp, model, data, problem)
@@ -549,7 +555,7 @@ def _per_point_memory_fits(problem, n: int) -> bool:
     return need <= memory_budget()
 
 
-def _per_point_jacobian(logp, model, data, problem):
+def _per_point_jacobian(logp, model, data, problem, starts=None):
     """``(r, dr/dlogp)`` of a full model's rolling residuals in one reverse-mode pass: each point
     gets its own copy of the log-parameters and is solved by :meth:`jaxroll.methods.Full.evaluate_points`
     (warm-started from the previous point, sorted by speed then load; the start is data only), so
@@ -557,7 +563,12 @@ def _per_point_jacobian(logp, model, data, problem):
     Jacobian, row by row. Each contact solve's derivative is then one adjoint (transposed) solve,
     where forward mode solves once per free parameter; each point builds its own kernel. On the
     60-point sphere benchmark one evaluation took 5.8 s of CPU against 13.6-14.7 s in forward
-    mode (benchmarks/LOG.md, "The sphere fit's evaluation")."""
+    mode (benchmarks/LOG.md, "The sphere fit's evaluation").
+
+    ``starts`` (:func:`_point_starts`): each point's contact solves start from its solution at
+    the previous evaluation (``evaluate_points(starts=...)``; data only: the result is the
+    same to the solver tolerance); then the return is ``(r, J, finals, failed)``, ``failed``
+    where a point's contact solve did not converge (:data:`_SOLVER_FAILURES`)."""
     params, (_, layer, _) = problem.params, model
     n = data["V"].shape[0]
 
@@ -565,11 +576,35 @@ def _per_point_jacobian(logp, model, data, problem):
         material = jax.vmap(lambda lp: params.build(lp, model)[0])(logp_points)
         out = problem.method.evaluate_points(material, layer, jnp.asarray(problem.radius, float), data["P"],
                                              data["V"], problem.geometry, axes=(0, None, None, 0, 0),
-                                             order=data["order"])
-        return (out.value - data["rr"]) / data["rr_sig"]
+                                             order=data["order"], starts=starts)
+        out, finals = (out, None) if starts is None else out
+        failed = jnp.isin(out.result, jnp.asarray(_SOLVER_FAILURES))
+        return (out.value - data["rr"]) / data["rr_sig"], (finals, failed)
 
-    r, pullback = jax.vjp(residuals, jnp.broadcast_to(logp, (n, logp.shape[0])))
-    return r, pullback(jnp.ones_like(r))[0]
+    r, pullback, (finals, failed) = jax.vjp(residuals, jnp.broadcast_to(logp, (n, logp.shape[0])), has_aux=True)
+    J = pullback(jnp.ones_like(r))[0]
+    return (r, J) if starts is None else (r, J, finals, failed)
+
+
+#: Result codes of a contact solve that did not converge: an evaluation whose started points
+#: (:func:`_point_starts`) end with one of them is evaluated again without the starts.
+_SOLVER_FAILURES = (RESULTS.max_steps_reached, RESULTS.linear_solve_failed, RESULTS.nonfinite)
+
+
+def _point_starts(problem, model, data):
+    """No start yet (each point from its neighbour, as without starts), in the form that
+    :func:`_per_point_jacobian` takes and returns, so that the first evaluation of a run and
+    the later ones share one program; ``None`` where the Jacobian is not per point."""
+    if problem.jac_step is not None or not _per_point(model, data, problem):
+        return None
+    n, grid = data["V"].shape[0], problem.method.grid
+    shape = (grid.window,) * problem.method.grid_ndim(problem.geometry)
+    # NumPy-built (no small XLA programs) with the strong dtypes that the program returns (weak
+    # ones would key a second program); WarmStart.none per point
+    flags = jnp.asarray(np.zeros(n, bool))
+    none = WarmStart(jnp.asarray(np.zeros((n, *shape), bool)), jnp.asarray(np.zeros((n, *shape))),
+                     jnp.asarray(np.zeros(n)), flags, flags)
+    return none, jnp.asarray(np.ones(n))
 
 
 def _data_arrays(rolling, dma, method):
@@ -721,12 +756,22 @@ def _host_functions(problem, model, data, progress):
     accepted points) reports progress."""
     params, names = problem.params, problem.params.names_flat()
     t_start, last, count = time.perf_counter(), {}, [0]
+    # each evaluation's contact solves start from the solutions at the last accepted point (the
+    # trust region's centre: every trial step starts from there), per point (:func:`_point_starts`)
+    none = _point_starts(problem, model, data)
+    accepted = {"starts": none}
 
     def evaluate(u):
         if "u" not in last or not np.array_equal(last["u"], u):
             logp, slope = params.logp_and_slope(u)
-            r, Jl = (np.asarray(a) for a in _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem))
-            last.update(u=np.array(u), logp=logp, slope=slope, r=r, J_logp=Jl)
+            starts = accepted["starts"]
+            out = _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem, starts)
+            if starts is not None and np.any(np.asarray(out[3])) and np.any(np.asarray(starts[0].valid)):
+                # a solve from its start did not converge: every point from its neighbour instead
+                out = _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem, none)
+            finals = None if starts is None else out[2]
+            r, Jl = (np.asarray(a) for a in out[:2])
+            last.update(u=np.array(u), logp=logp, slope=slope, r=r, J_logp=Jl, finals=finals)
         return last
 
     def residuals(u):
@@ -734,6 +779,8 @@ def _host_functions(problem, model, data, progress):
 
     def jacobian(u):
         e = evaluate(u)
+        if e["finals"] is not None and np.all(np.isfinite(e["r"])):
+            accepted["starts"] = e["finals"]
         if progress:
             count[0] += 1
             values = dict(zip(names, np.exp(e["logp"]).tolist()))
