@@ -23,8 +23,7 @@ difference of the outputs to those of XLA's defaults (0: bit for bit). Programs:
   (9 x 9 temperatures x speeds; ``bench_batched.py``'s map), captured from the library;
 - ``fit``: the first evaluation (residuals and Jacobian) of ``jr.fit_material`` on the shipped
   sphere benchmark (every 4th point; ``fit_profile.py --geometry sphere``), captured from the
-  library (the fit itself compiles it with XLA's defaults: it is not one of the programs that
-  take jaxroll's options);
+  library (the fit compiles it with jaxroll's options, through ``_compilation_cache.call``);
 - ``--first-call``: instead, a new interpreter's first ``jr.rolling_resistance`` of the default
   sphere point (import, grid sizing and compiles, an empty compilation cache), options on and off;
 """
@@ -127,16 +126,18 @@ def fit_program(every=4):
     data = fit_module.read_rolling_csv(jr.datasets.path("fit_sphere.csv"))
     keep = np.arange(len(data.speed)) % every == 0
     data = fit_module.RollingData(data.speed[keep], data.load[keep], data.value[keep], data.sigma[keep])
-    inner, seen = fit_module._residuals_and_jacobian_jit, []
+    from jaxroll import _compilation_cache
+
+    inner, call, seen = fit_module._residuals_and_jacobian_jit, _compilation_cache.call, []
 
     class Captured(Exception):
         pass
 
-    def capture(*args):
+    def capture(fn, *args):
         seen.append(args)
         raise Captured
 
-    fit_module._residuals_and_jacobian_jit = capture
+    _compilation_cache.call = capture
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -145,7 +146,7 @@ def fit_program(every=4):
     except Captured:
         pass
     finally:
-        fit_module._residuals_and_jacobian_jit = inner
+        _compilation_cache.call = call
     return inner, seen[0], {}
 
 

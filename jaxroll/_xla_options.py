@@ -10,9 +10,9 @@ options shorten that without slowing the programs (measured by
 * ``xla_backend_optimization_level=2``: LLVM's ``-O2`` instead of ``-O3``.
 
 They are *per-program* options (``jax.jit(...).lower(...).compile(options)``): they apply to the
-executables jaxroll compiles itself when a front door is called eagerly (the stored programs of
-:func:`jaxroll._compilation_cache.call`, stored or compiled in the process; the maps' and buckets'
-ahead-of-time programs; ``jaxroll reproduce``'s), never to
+executables jaxroll compiles itself (the front doors called eagerly and the fits' evaluations,
+through :func:`jaxroll._compilation_cache.call`, stored or compiled in the process; the maps' and
+buckets' ahead-of-time programs; ``jaxroll reproduce``'s), never to
 the user's other programs, and never to a program the user traces (inside a user's ``jax.jit``,
 ``jax.grad`` or ``jax.vmap``, jaxroll's functions are part of the user's program, whose options
 are the user's: JAX allows options on the top-level program only). A user who compiles such a
@@ -55,9 +55,8 @@ def compiler_options(platform: str | None = None, environ=None) -> dict | None:
 
         grad = jax.jit(jax.grad(loss), compiler_options=jaxroll.compiler_options())
 
-    The paper's reference case's gradient (``benchmarks/compile_options.py``) compiles in
-    0.68-0.82x the CPU time of XLA's defaults and runs as fast (within 3 %); the numbers change
-    by rounding only."""
+    Measured compile and run times with and without them: ``benchmarks/compile_options.py``
+    (benchmarks/README.md, "Compile options"); the numbers change by rounding only."""
     environ = os.environ if environ is None else environ
     if environ.get(ENV_VAR, "").strip().lower() in _OFF:
         return None

@@ -39,6 +39,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _compilation_cache
 from .._lsq import Z95, gauss_newton_distance, least_squares
 from .._numerics import check_plausible, input_checks
 from ..contact import WarmStart
@@ -765,10 +766,12 @@ def _host_functions(problem, model, data, progress):
         if "u" not in last or not np.array_equal(last["u"], u):
             logp, slope = params.logp_and_slope(u)
             starts = accepted["starts"]
-            out = _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem, starts)
+            # (through the compilation cache's call: jaxroll's XLA options, the lowered program stored)
+            out = _compilation_cache.call(_residuals_and_jacobian_jit, jnp.asarray(logp), model, data, problem, starts)
             if starts is not None and np.any(np.asarray(out[3])) and np.any(np.asarray(starts[0].valid)):
                 # a solve from its start did not converge: every point from its neighbour instead
-                out = _residuals_and_jacobian_jit(jnp.asarray(logp), model, data, problem, none)
+                out = _compilation_cache.call(_residuals_and_jacobian_jit, jnp.asarray(logp), model, data, problem,
+                                              none)
             finals = None if starts is None else out[2]
             r, Jl = (np.asarray(a) for a in out[:2])
             last.update(u=np.array(u), logp=logp, slope=slope, r=r, J_logp=Jl, finals=finals)
