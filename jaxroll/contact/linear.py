@@ -28,7 +28,7 @@ import jax.numpy as jnp
 
 from .._numerics import gmres
 
-__all__ = ["AbstractLinearSolver", "GMRES", "Dense"]
+__all__ = ["AbstractLinearSolver", "GMRES", "Dense", "Deferred"]
 
 #: Default Krylov basis sizes of :class:`GMRES`: with the preconditioner (2D windows) and without.
 #: Restarting throws the Krylov space away; near the resistance peak the preconditioned sphere
@@ -53,6 +53,21 @@ FIRST_SOLVE_CYCLES = 1
 #: Krylov iterations of a solve without fallback (restarts = this // restart), and of the fallback
 #: solve (which follows at most ``FIRST_SOLVE_CYCLES`` cycles of the first).
 MAX_KRYLOV_ITERATIONS = 1600
+
+
+class Deferred:
+    """A preconditioner ``v -> M v`` built where it is first applied: ``build()`` returns it.
+    The robust level of a preconditioner pair comes as one, so that its set-up (an FFT pair per
+    contact set) runs inside the fallback branch of :meth:`GMRES.solve_tracked`, i.e. only
+    where the cheap level did not converge."""
+
+    def __init__(self, build):
+        self.build = build
+
+
+def _built(precond):
+    """``precond`` itself, or the preconditioner a :class:`Deferred` builds."""
+    return precond.build() if isinstance(precond, Deferred) else precond
 
 
 class AbstractLinearSolver(eqx.Module):
@@ -94,7 +109,7 @@ class AbstractLinearSolver(eqx.Module):
         systems of the implicit derivatives (one solve each, on the converged contact set):
         with a preconditioner pair only its robust level, in one solver (no cheap-first
         cycle and no fallback branch in the program). Default: :meth:`solve`."""
-        robust = precond[1] if isinstance(precond, tuple) else precond
+        robust = _built(precond[1] if isinstance(precond, tuple) else precond)
         return self.solve(matvec, b, None, robust, rtol)
 
 
@@ -153,7 +168,7 @@ class GMRES(AbstractLinearSolver):
     def solve_derivative(self, matvec, b, precond, rtol):
         # one GMRES(restart) with the robust level: the derivative solves need no set decisions,
         # and one Krylov solver in the program instead of two keeps the gradient's compile short
-        robust = precond[1] if isinstance(precond, tuple) else precond
+        robust = _built(precond[1] if isinstance(precond, tuple) else precond)
         x, _ = gmres(matvec, b, jnp.zeros_like(b), atol=rtol * jnp.linalg.norm(b),
                      precond=robust if self.preconditioned else None, restart=self.restart,
                      maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.restart))
@@ -166,17 +181,17 @@ class GMRES(AbstractLinearSolver):
         x0 = jnp.zeros_like(b) if x0 is None else x0
         atol = rtol * jnp.linalg.norm(b)
         first, second = precond if isinstance(precond, tuple) else (precond, precond)
-        first, second = (first, second) if self.preconditioned else (None, None)
+        first, second = (_built(first), second) if self.preconditioned else (None, None)
         cycles = self.max_restarts
         if robust is not None and self.fallback_restart and isinstance(precond, tuple):
             cycles = jnp.where(robust, 0, cycles)
         x, res = gmres(matvec, b, x0, atol=atol, precond=first, restart=self.restart, maxiter=cycles)
         if not self.fallback_restart:
-            return x, robust
+            return x, robust  # (a single-level solver: a Deferred `second` is never built)
 
         def fallback(c):  # at most one pass, in a while loop so that it is skipped when not needed
             x, _, _ = c
-            x, res = gmres(matvec, b, x, atol=atol, precond=second, restart=self.fallback_restart,
+            x, res = gmres(matvec, b, x, atol=atol, precond=_built(second), restart=self.fallback_restart,
                            maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart))
             return x, res, jnp.asarray(True)
 
