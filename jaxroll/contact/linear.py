@@ -97,11 +97,16 @@ class AbstractLinearSolver(eqx.Module):
         """
 
 
-    def solve_tracked(self, matvec, b, x0, precond, rtol, robust) -> tuple:
+    def solve_tracked(self, matvec, b, x0, precond, rtol, robust, has_aux=False) -> tuple:
         """``(x, robust)``: :meth:`solve`, for a sequence of related systems (the steps of one
         contact solve) that share what the solver learned: ``robust`` (traced bool) says that an
         earlier solve needed the robust level of a preconditioner pair, and comes back true once
-        one did. Default: :meth:`solve`, ``robust`` unchanged."""
+        one did. Default: :meth:`solve`, ``robust`` unchanged. ``has_aux``: ``matvec(v)`` returns
+        ``(A v, aux)``, and ``(x, robust, aux)`` comes back with ``aux`` at ``x`` (an iterative
+        solver takes it from the product that checks the residual; here one more product)."""
+        if has_aux:
+            x, robust = self.solve_tracked(lambda v: matvec(v)[0], b, x0, precond, rtol, robust)
+            return x, robust, matvec(x)[1]
         return self.solve(matvec, b, x0, precond, rtol), robust
 
     def solve_derivative(self, matvec, b, precond, rtol) -> jax.Array:
@@ -174,7 +179,7 @@ class GMRES(AbstractLinearSolver):
                      maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.restart))
         return x
 
-    def solve_tracked(self, matvec, b, x0, precond, rtol, robust):
+    def solve_tracked(self, matvec, b, x0, precond, rtol, robust, has_aux=False):
         # right preconditioning: the stopping test is on the true residual |b - A x| <= rtol |b|.
         # A pair (cheap, robust): the first solve with the cheap level, skipped (no cycle) once an
         # earlier solve of the sequence needed the robust one; the fallback with the robust level
@@ -185,18 +190,20 @@ class GMRES(AbstractLinearSolver):
         cycles = self.max_restarts
         if robust is not None and self.fallback_restart and isinstance(precond, tuple):
             cycles = jnp.where(robust, 0, cycles)
-        x, res = gmres(matvec, b, x0, atol=atol, precond=first, restart=self.restart, maxiter=cycles)
+        x, res, *aux = gmres(matvec, b, x0, atol=atol, precond=first, restart=self.restart, maxiter=cycles,
+                             has_aux=has_aux)
         if not self.fallback_restart:
-            return x, robust  # (a single-level solver: a Deferred `second` is never built)
+            return (x, robust, *aux)  # (a single-level solver: a Deferred `second` is never built)
 
         def fallback(c):  # at most one pass, in a while loop so that it is skipped when not needed
-            x, _, _ = c
-            x, res = gmres(matvec, b, x, atol=atol, precond=_built(second), restart=self.fallback_restart,
-                           maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart))
-            return x, res, jnp.asarray(True)
+            x = c[0]
+            x, res, *aux = gmres(matvec, b, x, atol=atol, precond=_built(second), restart=self.fallback_restart,
+                                 maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart), has_aux=has_aux)
+            return x, res, jnp.asarray(True), *aux
 
-        x, _, fell_back = jax.lax.while_loop(lambda c: (c[1] > atol) & ~c[2], fallback, (x, res, jnp.asarray(False)))
-        return x, (None if robust is None else robust | fell_back)
+        x, _, fell_back, *aux = jax.lax.while_loop(lambda c: (c[1] > atol) & ~c[2], fallback,
+                                                   (x, res, jnp.asarray(False), *aux))
+        return (x, None if robust is None else robust | fell_back, *aux)
 
 
 class Dense(AbstractLinearSolver):
