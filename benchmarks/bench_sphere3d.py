@@ -126,11 +126,13 @@ def count_report(table, theta):
 
     apply = op.circulant_window_apply
     op.circulant_window_apply, pc.circulant_window_apply = _counting("C", apply), _counting("M", apply)
+    jax.clear_caches()  # trace anew (the library's inner jits would reuse the uncounted programs)
     try:
         COUNT.update(C=0, M=0)
         _, _, it = jax.block_until_ready(jax.jit(table)(*theta))
     finally:
         op.circulant_window_apply = pc.circulant_window_apply = apply
+        jax.clear_caches()
     n = np.asarray(it).size
     print(f"per solve: {float(np.mean(it)):.2f} active-set steps (max {int(np.max(it))}), "
           f"{COUNT['C'] / n:.1f} compliance and {COUNT['M'] / n:.1f} preconditioner applications")
