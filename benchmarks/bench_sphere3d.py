@@ -1,7 +1,7 @@
 """Benchmark of the full 3D rolling sphere (``jr.Full``, geometry "sphere"): the paper's reference case.
 
 Run:  python benchmarks/bench_sphere3d.py [--quick] [--H 0.03] [--repeat 3] [--period 0.2 | none] [--grad]
-      [--restart N] [--programs]
+      [--restart N] [--programs] [--count]
 
 Reference case ([ZG] Table 1 / docs/design.md sec. 3): 23 log-spaced speeds 1e-4..1 m/s x 15
 loads 10..150 N, R = 2 cm, SLS G0 = 3 MPa, tau = 0.25 s, f = 1, H = 30 mm, at the paper's
@@ -16,7 +16,11 @@ Reports the device, resolution, the points that are not valid (``RollingResult.r
 active-set iterations and the compiled working memory. ``--quick``: 6 speeds x 4 loads, cells
 0.5 mm, 250 terms, one repeat. ``--programs``: also the size of each program (StableHLO text, its
 while loops and FFTs) and its compile time in process CPU seconds (steadier than wall time on a
-shared machine), lowered and compiled again apart from the timed runs.
+shared machine), lowered and compiled again apart from the timed runs. ``--count``: also the
+active-set steps and the circulant applications per solve (``C``: the compliance, i.e. the
+Krylov operator plus the residual checks, the displacement and the dissipation; ``M``: the
+preconditioner), counted with the debug callback of ``contact_iterations.py`` in one more run of a
+separately compiled table (the callbacks cost time, so never in the timed runs).
 """
 
 from __future__ import annotations
@@ -51,6 +55,8 @@ def main():
     ap.add_argument("--period", default="0.2", help="period [m] (the paper's 0.2) or 'none' (an infinite layer)")
     ap.add_argument("--programs", action="store_true",
                     help="also print each program's size (StableHLO, while loops, FFTs) and compile CPU seconds")
+    ap.add_argument("--count", action="store_true",
+                    help="also count the active-set steps and operator applications per solve (one more run)")
     args = ap.parse_args()
     if args.quick:
         speeds, loads, spacing, n_terms, repeat = np.logspace(-4, 0, 6), np.linspace(10, 150, 4), 5e-4, 250, 1
@@ -93,6 +99,8 @@ def main():
         pass
     if args.programs:
         program_report("table", table, theta)
+    if args.count:
+        count_report(table, theta)
     grad_note = ""
     if args.grad:
         def objective(G, tau, f, H, loads, speeds):
@@ -112,6 +120,26 @@ def main():
             per_case, comp,
             "paper full 3D: 54 min per reference case", f"{PAPER_S / per_case:.0f}x",
             f"{size}; run {med:.2f} s scaled x{345 / v.size:.1f} to 345 points{grad_note}")
+
+
+def count_report(table, theta):
+    """Print the active-set steps and the circulant applications (compliance ``C``,
+    preconditioner ``M``) per solve of one run of ``table``, counted by debug callbacks."""
+    from contact_iterations import COUNT, _counting
+    from jaxroll.contact import operator as op, precondition as pc
+
+    apply = op.circulant_window_apply
+    op.circulant_window_apply, pc.circulant_window_apply = _counting("C", apply), _counting("M", apply)
+    jax.clear_caches()  # trace anew (the library's inner jits would reuse the uncounted programs)
+    try:
+        COUNT.update(C=0, M=0)
+        _, _, it = jax.block_until_ready(jax.jit(table)(*theta))
+    finally:
+        op.circulant_window_apply = pc.circulant_window_apply = apply
+        jax.clear_caches()
+    n = np.asarray(it).size
+    print(f"per solve: {float(np.mean(it)):.2f} active-set steps (max {int(np.max(it))}), "
+          f"{COUNT['C'] / n:.1f} compliance and {COUNT['M'] / n:.1f} preconditioner applications")
 
 
 def program_report(name, fn, args):

@@ -392,13 +392,16 @@ def test_penetration_mode_reproduces_load_mode_2d():
 # ---------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("precondition", [False, True])
-def test_gmres_matches_dense_solve(precondition):
+@pytest.mark.parametrize("precondition, restart", [(False, 8), (True, 8), (True, 40)])
+def test_gmres_matches_dense_solve(precondition, restart):
     """jaxroll._numerics.gmres against numpy.linalg.solve on a seeded non-symmetric system
-    (condition ~1e2), restarted (basis 8 < n = 60), with and without a right preconditioner;
-    a start that already solves the system is returned unchanged."""
-    from jaxroll._numerics import gmres
+    (condition ~1e2), restarted (basis 8 < n = 60), with and without a right preconditioner, and
+    with a basis of 40 (a cycle that moves from the short basis into the long one: the same
+    iterates); a start that already solves the system is returned unchanged; ``has_aux`` returns
+    the auxiliary output of the product at the solution."""
+    from jaxroll._numerics import SHORT_BASIS, gmres
 
+    assert restart < SHORT_BASIS or restart > SHORT_BASIS + 10  # 40: more steps than the short basis
     rng = np.random.default_rng(3)
     n = 60
     A = np.diag(np.linspace(1.0, 100.0, n)) + 0.5 * rng.normal(size=(n, n))
@@ -407,12 +410,13 @@ def test_gmres_matches_dense_solve(precondition):
     Aj = jnp.asarray(A)
     precond = (lambda v: v / jnp.diag(Aj)) if precondition else None
     atol = 1e-12 * np.linalg.norm(b)
-    x, res = jax.jit(lambda b, x0: gmres(lambda v: Aj @ v, b, x0, atol=atol, precond=precond, restart=8,
-                                         maxiter=200))(jnp.asarray(b), jnp.zeros(n))
+    x, res, aux = jax.jit(lambda b, x0: gmres(lambda v: (Aj @ v, 2.0 * v), b, x0, atol=atol, precond=precond,
+                                              restart=restart, maxiter=200, has_aux=True))(jnp.asarray(b), jnp.zeros(n))
     assert float(res) <= atol
     assert np.linalg.norm(np.asarray(x) - exact) <= 1e-9 * np.linalg.norm(exact)
     assert abs(float(res) - np.linalg.norm(b - A @ np.asarray(x))) <= 1e-12 * np.linalg.norm(b)
-    x2, _ = gmres(lambda v: Aj @ v, jnp.asarray(b), x, atol=atol, precond=precond, restart=8, maxiter=200)
+    np.testing.assert_array_equal(np.asarray(aux), 2.0 * np.asarray(x))
+    x2, _ = gmres(lambda v: Aj @ v, jnp.asarray(b), x, atol=atol, precond=precond, restart=restart, maxiter=200)
     np.testing.assert_array_equal(np.asarray(x2), np.asarray(x))
 
 

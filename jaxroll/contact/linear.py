@@ -28,7 +28,7 @@ import jax.numpy as jnp
 
 from .._numerics import gmres
 
-__all__ = ["AbstractLinearSolver", "GMRES", "Dense"]
+__all__ = ["AbstractLinearSolver", "GMRES", "Dense", "Deferred"]
 
 #: Default Krylov basis sizes of :class:`GMRES`: with the preconditioner (2D windows) and without.
 #: Restarting throws the Krylov space away; near the resistance peak the preconditioned sphere
@@ -53,6 +53,21 @@ FIRST_SOLVE_CYCLES = 1
 #: Krylov iterations of a solve without fallback (restarts = this // restart), and of the fallback
 #: solve (which follows at most ``FIRST_SOLVE_CYCLES`` cycles of the first).
 MAX_KRYLOV_ITERATIONS = 1600
+
+
+class Deferred:
+    """A preconditioner ``v -> M v`` built where it is first applied: ``build()`` returns it.
+    The robust level of a preconditioner pair comes as one, so that its set-up (an FFT pair per
+    contact set) runs inside the fallback branch of :meth:`GMRES.solve_tracked`, i.e. only
+    where the cheap level did not converge."""
+
+    def __init__(self, build):
+        self.build = build
+
+
+def _built(precond):
+    """``precond`` itself, or the preconditioner a :class:`Deferred` builds."""
+    return precond.build() if isinstance(precond, Deferred) else precond
 
 
 class AbstractLinearSolver(eqx.Module):
@@ -82,11 +97,16 @@ class AbstractLinearSolver(eqx.Module):
         """
 
 
-    def solve_tracked(self, matvec, b, x0, precond, rtol, robust) -> tuple:
+    def solve_tracked(self, matvec, b, x0, precond, rtol, robust, has_aux=False) -> tuple:
         """``(x, robust)``: :meth:`solve`, for a sequence of related systems (the steps of one
         contact solve) that share what the solver learned: ``robust`` (traced bool) says that an
         earlier solve needed the robust level of a preconditioner pair, and comes back true once
-        one did. Default: :meth:`solve`, ``robust`` unchanged."""
+        one did. Default: :meth:`solve`, ``robust`` unchanged. ``has_aux``: ``matvec(v)`` returns
+        ``(A v, aux)``, and ``(x, robust, aux)`` comes back with ``aux`` at ``x`` (an iterative
+        solver takes it from the product that checks the residual; here one more product)."""
+        if has_aux:
+            x, robust = self.solve_tracked(lambda v: matvec(v)[0], b, x0, precond, rtol, robust)
+            return x, robust, matvec(x)[1]
         return self.solve(matvec, b, x0, precond, rtol), robust
 
     def solve_derivative(self, matvec, b, precond, rtol) -> jax.Array:
@@ -94,7 +114,7 @@ class AbstractLinearSolver(eqx.Module):
         systems of the implicit derivatives (one solve each, on the converged contact set):
         with a preconditioner pair only its robust level, in one solver (no cheap-first
         cycle and no fallback branch in the program). Default: :meth:`solve`."""
-        robust = precond[1] if isinstance(precond, tuple) else precond
+        robust = _built(precond[1] if isinstance(precond, tuple) else precond)
         return self.solve(matvec, b, None, robust, rtol)
 
 
@@ -153,35 +173,37 @@ class GMRES(AbstractLinearSolver):
     def solve_derivative(self, matvec, b, precond, rtol):
         # one GMRES(restart) with the robust level: the derivative solves need no set decisions,
         # and one Krylov solver in the program instead of two keeps the gradient's compile short
-        robust = precond[1] if isinstance(precond, tuple) else precond
+        robust = _built(precond[1] if isinstance(precond, tuple) else precond)
         x, _ = gmres(matvec, b, jnp.zeros_like(b), atol=rtol * jnp.linalg.norm(b),
                      precond=robust if self.preconditioned else None, restart=self.restart,
                      maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.restart))
         return x
 
-    def solve_tracked(self, matvec, b, x0, precond, rtol, robust):
+    def solve_tracked(self, matvec, b, x0, precond, rtol, robust, has_aux=False):
         # right preconditioning: the stopping test is on the true residual |b - A x| <= rtol |b|.
         # A pair (cheap, robust): the first solve with the cheap level, skipped (no cycle) once an
         # earlier solve of the sequence needed the robust one; the fallback with the robust level
         x0 = jnp.zeros_like(b) if x0 is None else x0
         atol = rtol * jnp.linalg.norm(b)
         first, second = precond if isinstance(precond, tuple) else (precond, precond)
-        first, second = (first, second) if self.preconditioned else (None, None)
+        first, second = (_built(first), second) if self.preconditioned else (None, None)
         cycles = self.max_restarts
         if robust is not None and self.fallback_restart and isinstance(precond, tuple):
             cycles = jnp.where(robust, 0, cycles)
-        x, res = gmres(matvec, b, x0, atol=atol, precond=first, restart=self.restart, maxiter=cycles)
+        x, res, *aux = gmres(matvec, b, x0, atol=atol, precond=first, restart=self.restart, maxiter=cycles,
+                             has_aux=has_aux)
         if not self.fallback_restart:
-            return x, robust
+            return (x, robust, *aux)  # (a single-level solver: a Deferred `second` is never built)
 
         def fallback(c):  # at most one pass, in a while loop so that it is skipped when not needed
-            x, _, _ = c
-            x, res = gmres(matvec, b, x, atol=atol, precond=second, restart=self.fallback_restart,
-                           maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart))
-            return x, res, jnp.asarray(True)
+            x = c[0]
+            x, res, *aux = gmres(matvec, b, x, atol=atol, precond=_built(second), restart=self.fallback_restart,
+                                 maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart), has_aux=has_aux)
+            return x, res, jnp.asarray(True), *aux
 
-        x, _, fell_back = jax.lax.while_loop(lambda c: (c[1] > atol) & ~c[2], fallback, (x, res, jnp.asarray(False)))
-        return x, (None if robust is None else robust | fell_back)
+        x, _, fell_back, *aux = jax.lax.while_loop(lambda c: (c[1] > atol) & ~c[2], fallback,
+                                                   (x, res, jnp.asarray(False), *aux))
+        return (x, None if robust is None else robust | fell_back, *aux)
 
 
 class Dense(AbstractLinearSolver):

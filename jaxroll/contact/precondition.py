@@ -33,6 +33,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .linear import Deferred
 from .operator import WindowedCompliance, _smooth_size, circulant_window_apply, fold_offsets
 from .system import ContactSystem, flat
 
@@ -90,8 +91,11 @@ class CirculantPreconditioner(eqx.Module):
         """``(M_cheap, M_whole)``, each ``~ A^-1`` (or ``A^-T``) of the bordered system: rows on
         ``in_set`` ~ ``w_in`` times the scaled ``C`` on the set, rows off it ~ ``w_out`` times the
         identity; ``u, v``: window-shaped ``d`` column and last row; ``c``: corner. ``M_cheap``
-        inverts the folded coefficients, ``M_whole`` the whole embedding."""
-        return tuple(self._block(in_set, w_in, w_out, u, v, c, transpose, cheap) for cheap in (True, False))
+        inverts the folded coefficients, ``M_whole`` the whole embedding; ``M_whole`` comes as a
+        :class:`~jaxroll.contact.linear.Deferred` (its set-up, one application, runs only where
+        it is used)."""
+        return (self._block(in_set, w_in, w_out, u, v, c, transpose, True),
+                Deferred(lambda: self._block(in_set, w_in, w_out, u, v, c, transpose, False)))
 
     def _block(self, in_set, w_in, w_out, u, v, c, transpose, cheap):
         mf = in_set.astype(float)

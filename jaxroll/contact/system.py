@@ -83,16 +83,21 @@ class ContactSystem(eqx.Module):
         """Scaled gap ``g/g_s = h/g_s - d~ + C p~ (p_s/g_s)``."""
         return self.profile / self.g_s - dt + self.compliance(pt) * (self.p_s / self.g_s)
 
-    def matvec(self, mask):
-        """The operator of the equality-constrained system on the contact set ``mask``."""
+    def matvec(self, mask, with_gap=False):
+        """The operator of the equality-constrained system on the contact set ``mask``;
+        ``with_gap``: ``x -> (A x, g~)`` with the scaled gap of the pressure on the set,
+        ``h/g_s - d~ + C (mask p~) (p_s/g_s)``, from the same product (off the set ``p~`` is 0
+        at the solution, to the solve's tolerance)."""
         maskf = mask.astype(float)
         ratio = self.p_s / self.g_s
 
         def matvec(x):
             pt = x[:-1].reshape(self.shape)
             dt = x[-1]
-            gap_rows = maskf * (self.compliance(maskf * pt) * ratio - dt) + (1.0 - maskf) * pt
-            return jnp.concatenate([gap_rows.ravel(), self.last_row(maskf * pt, dt)[None]])
+            cu = self.compliance(maskf * pt) * ratio - dt
+            gap_rows = maskf * cu + (1.0 - maskf) * pt
+            out = jnp.concatenate([gap_rows.ravel(), self.last_row(maskf * pt, dt)[None]])
+            return (out, self.profile / self.g_s + cu) if with_gap else out
 
         return matvec
 
