@@ -15,10 +15,10 @@ later process loads it instead of compiling it again; tracing the Python code st
   ``jax.config.update("jax_compilation_cache_dir", ...)`` before ``import jaxroll``) is left
   as it is, together with JAX's other cache settings.
 * Programs that took at least :data:`MIN_COMPILE_TIME` to compile are stored, about 1 MB each
-  (one per method, geometry and input shapes, and per JAX version); JAX keeps the directory
-  under :data:`MAX_CACHE_BYTES`, evicting the least recently used programs (its size cap uses
-  the ``filelock`` package, a dependency of jaxroll; without it the directory is not trimmed).
-  The directory may be deleted at any time.
+  (one per method, geometry and input shapes, and per JAX version); the directory is not
+  trimmed and may be deleted at any time. (JAX's own size cap, ``jax_compilation_cache_max_size``,
+  keeps an access-time file beside each program and fails to write any program into a directory
+  filled without it, e.g. by an earlier jaxroll: it is left off.)
 * It takes effect if ``import jaxroll`` comes before the process's first compilation (JAX
   decides once per process whether it uses the cache).
 * On some x86 processors XLA logs three lines for each program it loads from the cache
@@ -64,7 +64,7 @@ import jax
 
 from ._xla_options import compiler_options
 
-__all__ = ["ENV_VAR", "MAX_CACHE_BYTES", "MAX_LOWERED_BYTES", "MIN_COMPILE_TIME", "cache_directory", "enable",
+__all__ = ["ENV_VAR", "MAX_LOWERED_BYTES", "MIN_COMPILE_TIME", "cache_directory", "enable",
            "processor_tag"]
 
 #: Environment variable: ``0``/``off``/``false``/``no`` switches the cache off, any other
@@ -77,10 +77,6 @@ ENV_VAR = "JAXROLL_COMPILATION_CACHE"
 #: 1.65 s (measured 2026-11-26, 2 shared cores); jax's eager one-operation programs (0.01-0.09 s)
 #: stay out, each stored program costing a file read.
 MIN_COMPILE_TIME = 0.1
-
-#: Size cap [bytes] of JAX's compiled programs in the cache directory (least recently used ones
-#: are evicted beyond it; ~1 MB per program: about a thousand front-door programs).
-MAX_CACHE_BYTES = 1 << 30
 
 #: Size cap [bytes] of the lowered programs' folder :data:`PROGRAMS` (10-300 kB per program;
 #: every edit of jaxroll's source or new JAX version writes new ones).
@@ -127,11 +123,6 @@ def enable(environ=None) -> Path | None:
         return None
     jax.config.update("jax_compilation_cache_dir", str(directory))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_TIME)
-    try:
-        import filelock  # noqa: F401  (JAX's size cap needs it)
-    except ImportError:
-        return directory
-    jax.config.update("jax_compilation_cache_max_size", MAX_CACHE_BYTES)
     return directory
 
 
