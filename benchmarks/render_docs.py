@@ -188,6 +188,7 @@ def compile_options_table(numbers: dict) -> str:
     sec = numbers["compile_options"]
     names = {"reference": "reference table (23 x 15, window 55)", "reference-grad": "its gradient (G0, tau, f, H)",
              "point": "default sphere point", "point-grad": "its gradient (G0, tau, f, H)",
+             "point-rho": "default sphere point, layer with inertia",
              "map": "resistance map's largest program (9 x 9)", "fit": "sphere fit's evaluation (residuals, Jacobian)"}
     base = {r["program"]: r for r in sec["rows"] if r["set"] == "base"}
     lines = [f"`{sec['command']}`, {_machine(sec['measured'])}; {sec['load_start']:g} at the start of the run. "
