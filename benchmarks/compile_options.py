@@ -139,9 +139,9 @@ def fit_program(every=4):
     class Captured(Exception):
         pass
 
-    def capture(fn, *args):
+    def capture(fn, *args, **kw):
         if fn is not inner:  # the grid rule's sizing programs go through call() too
-            return call(fn, *args)
+            return call(fn, *args, **kw)
         seen.append(args)
         raise Captured
 

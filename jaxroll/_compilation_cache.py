@@ -232,7 +232,7 @@ def programs_directory() -> Path | None:
     return Path(directory) / PROGRAMS
 
 
-def call(fn, *args):
+def call(fn, *args, store: bool = True):
     """``fn(*args)``, with ``fn`` a jitted function (``jax.jit`` or ``equinox.filter_jit``) whose
     non-array arguments are static, through a lowered program kept across processes: the first
     process to call ``fn`` with a static configuration and input shapes stores the program
@@ -240,8 +240,10 @@ def call(fn, *args):
     numbers are those of ``fn`` (the same program). ``fn`` itself runs when an input is traced
     or the call is part of a user's ``jit``/``vmap``/``grad``, or when neither the cache nor
     compile options apply; with the cache off, or for a static value without an identifying text,
-    ``fn`` compiles in the process as a top-level program with jaxroll's compile options. Only for jaxroll's own functions: the key holds
-    jaxroll's source, not the caller's."""
+    ``fn`` compiles in the process as a top-level program with jaxroll's compile options.
+    ``store=False``: never stored (only compiled with the options): for large programs whose export
+    costs more in the first process than tracing saves in later ones (a fit's evaluation;
+    benchmarks/LOG.md). Only for jaxroll's own functions: the key holds jaxroll's source, not the caller's."""
     if programs_directory() is None and compiler_options() is None:
         return fn(*args)
     leaves, treedef = jax.tree_util.tree_flatten(args)
@@ -257,7 +259,7 @@ def call(fn, *args):
     except TypeError:  # an unhashable static value: fn's own jit would refuse it too
         return fn(*args)
     if entry is None:
-        entry = _lowered(fn, leaves, treedef, dynamic, shapes) or _in_process(fn, leaves, treedef, dynamic)
+        entry = (store and _lowered(fn, leaves, treedef, dynamic, shapes)) or _in_process(fn, leaves, treedef, dynamic)
         _memo[memo_key] = entry
     if entry is False:
         return fn(*args)

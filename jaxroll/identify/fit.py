@@ -766,12 +766,13 @@ def _host_functions(problem, model, data, progress):
         if "u" not in last or not np.array_equal(last["u"], u):
             logp, slope = params.logp_and_slope(u)
             starts = accepted["starts"]
-            # (through the compilation cache's call: jaxroll's XLA options, the lowered program stored)
-            out = _compilation_cache.call(_residuals_and_jacobian_jit, jnp.asarray(logp), model, data, problem, starts)
+            # (through the compilation cache's call: jaxroll's XLA options; not stored, its export costs more)
+            out = _compilation_cache.call(_residuals_and_jacobian_jit, jnp.asarray(logp), model, data, problem, starts,
+                                          store=False)
             if starts is not None and np.any(np.asarray(out[3])) and np.any(np.asarray(starts[0].valid)):
                 # a solve from its start did not converge: every point from its neighbour instead
                 out = _compilation_cache.call(_residuals_and_jacobian_jit, jnp.asarray(logp), model, data, problem,
-                                              none)
+                                              none, store=False)
             finals = None if starts is None else out[2]
             r, Jl = (np.asarray(a) for a in out[:2])
             last.update(u=np.array(u), logp=logp, slope=slope, r=r, J_logp=Jl, finals=finals)
