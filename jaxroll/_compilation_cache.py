@@ -365,7 +365,10 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
             stored = pickle.load(fh)
         if stored["key"] == key and _prepare_custom_calls(stored["custom_calls"]):
             exported = stored["exported"]
-            os.utime(path)  # used: the last to go when the folder is trimmed
+            try:
+                os.utime(path)  # used: the last to go when the folder is trimmed
+            except OSError:  # a read-only cache folder: loaded all the same
+                pass
             return jax.jit(exported.call, compiler_options=compiler_options()), jax.tree_util.tree_structure(
                 stored["outputs"])
     except Exception:  # noqa: BLE001  (absent, unreadable or from another version: lower anew)

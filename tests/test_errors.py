@@ -218,20 +218,22 @@ def test_lowered_programs_folder_keeps_the_recently_used_under_its_cap(tmp_path,
     monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
     x = jnp.linspace(0.1, 1.0, 5)
     _forget(_scaled)
-    for i, label in enumerate(("a", "bb", "ccc")):
+    names = {}
+    for label in ("a", "bb", "ccc"):
+        before = {p.name for p in tmp_path.glob("*.pkl")}
         _compilation_cache.call(_scaled, x, jnp.asarray(2.0), label)
+        (names[label],) = {p.name for p in tmp_path.glob("*.pkl")} - before
         for path in tmp_path.glob("*.pkl"):  # a clear order, oldest first: a, bb, ccc
             os.utime(path, (path.stat().st_mtime - 10.0,) * 2)
     sizes = {p.name: p.stat().st_size for p in tmp_path.glob("*.pkl")}
     assert len(sizes) == 3
     _forget(_scaled)
     _compilation_cache.call(_scaled, x, jnp.asarray(2.0), "a")  # loaded: "a" is now the most recent
-    first = sorted(tmp_path.glob("*.pkl"), key=lambda p: p.stat().st_mtime)
     # a cap that holds two files of this size: the fourth program removes the two oldest, bb and ccc
     monkeypatch.setattr(_compilation_cache, "MAX_LOWERED_BYTES", 2 * max(sizes.values()) + 1)
     _compilation_cache.call(_scaled, x, jnp.asarray(2.0), "dddd")
     left = {p.name for p in tmp_path.glob("*.pkl")}
-    assert len(left) == 2 and first[-1].name in left and not {first[0].name, first[1].name} & left
+    assert len(left) == 2 and names["a"] in left and not {names["bb"], names["ccc"]} & left
 
 
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")

@@ -111,7 +111,7 @@ class WarmStart(eqx.Module):
     pressure: jax.Array
     penetration: jax.Array
     valid: jax.Array
-    smoothed: jax.Array
+    smoothed: jax.Array = False
 
     @classmethod
     def none(cls, shape) -> "WarmStart":

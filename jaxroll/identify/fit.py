@@ -769,8 +769,9 @@ def _host_functions(problem, model, data, progress):
             # (through the compilation cache's call: jaxroll's XLA options; not stored, its export costs more)
             out = _compilation_cache.call(_residuals_and_jacobian_jit, jnp.asarray(logp), model, data, problem, starts,
                                           store=False)
-            if starts is not None and np.any(np.asarray(out[3])) and np.any(np.asarray(starts[0].valid)):
-                # a solve from its start did not converge: every point from its neighbour instead
+            if starts is not None and np.any(np.asarray(out[3]) & np.asarray(starts[0].valid)):
+                # a solve from its own start did not converge: every point from its neighbour instead (a
+                # point that fails without a start of its own fails cold too: no second evaluation for it)
                 out = _compilation_cache.call(_residuals_and_jacobian_jit, jnp.asarray(logp), model, data, problem,
                                               none, store=False)
             finals = None if starts is None else out[2]
