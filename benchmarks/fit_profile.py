@@ -30,24 +30,29 @@ def main():
     keep = np.arange(len(data.speed)) % args.every == 0
     data = RollingData(data.speed[keep], data.load[keep], data.value[keep], data.sigma[keep])
 
-    compiles = []
+    # JAX's compile events, by kind: tracing to a jaxpr, lowering to MLIR, XLA's backend compile
+    events = {"trace": "/jax/core/compile/jaxpr_trace_duration", "lower": "/jax/core/compile/jaxpr_to_mlir_module_duration",
+              "compile": "/jax/core/compile/backend_compile_duration"}
+    spent = {k: [] for k in events}
     jax.monitoring.register_event_duration_secs_listener(
-        lambda name, secs, **kw: compiles.append(secs) if name == "/jax/core/compile/backend_compile_duration"
-        else None)
+        lambda name, secs, **kw: [spent[k].append(secs) for k, e in events.items() if e == name])
     evaluations, seconds, per_window = [0], [0.0], {}
-    inner = fit_module._residuals_and_jacobian_jit
+    cache = fit_module._compilation_cache
+    inner_call = cache.call
 
-    def counted(logp, model, data, problem, *starts):
+    def counted(fn, *args, **kw):  # the fit's evaluations run through the compilation cache's call
+        if fn is not fit_module._residuals_and_jacobian_jit:
+            return inner_call(fn, *args, **kw)
         t = time.process_time()
-        out = jax.block_until_ready(inner(logp, model, data, problem, *starts))
+        out = jax.block_until_ready(inner_call(fn, *args, **kw))
         evaluations[0] += 1
         seconds[0] += time.process_time() - t
-        row = per_window.setdefault(problem.method.grid.window, [0, []])
+        row = per_window.setdefault(args[3].method.grid.window, [0, []])
         row[0] += 1
         row[1].append(time.process_time() - t)
         return out
 
-    fit_module._residuals_and_jacobian_jit = counted
+    cache.call = counted
     iterations = []
     load = os.getloadavg()[0]
     t, c = time.perf_counter(), time.process_time()
@@ -61,7 +66,8 @@ def main():
     print(f"  evaluations (r and J together): {evaluations[0]}, {seconds[0]:.1f} s CPU in them "
           f"({seconds[0] / max(evaluations[0], 1):.2f} s each incl. compiles); accepted points (Jacobian calls): "
           f"{len(iterations)}; runs (grids): {len(res.starts)}")
-    print(f"  XLA compilations: {len(compiles)}, {sum(compiles):.1f} s; largest {sorted(compiles)[-3:]}")
+    for k, secs in spent.items():
+        print(f"  {k} (wall): {len(secs)} programs, {sum(secs):.1f} s; largest {[round(x, 1) for x in sorted(secs)[-3:]]}")
     for window, (count, cpu) in per_window.items():
         print(f"  window {window} cells: {count} evaluations, CPU {sum(cpu):.1f} s (first {cpu[0]:.1f} s incl. "
               f"compile, then median {np.median(cpu[1:]) if len(cpu) > 1 else float('nan'):.2f} s)")

@@ -58,6 +58,7 @@ import hashlib
 import os
 import platform
 import re
+import threading
 from pathlib import Path
 
 import jax
@@ -139,6 +140,7 @@ PROGRAMS = "jaxroll-lowered"
 
 _FORMAT = 2  # of the stored files; part of every key
 _memo: dict = {}  # (function, input structure, static leaves, shapes, trace context) -> (run, output structure)
+_ahead: dict = {}  # memo key -> the thread compiling its program ahead (compile_ahead)
 _prefix: list = []  # the key's part common to every program of this process (computed once)
 
 
@@ -249,16 +251,15 @@ def call(fn, *args, store: bool = True):
     leaves, treedef = jax.tree_util.tree_flatten(args)
     if not _outside_traces() or any(isinstance(x, jax.core.Tracer) for x in leaves):
         return fn(*args)
-    dynamic = [i for i, x in enumerate(leaves) if _is_array(x)]
-    static = tuple(None if _is_array(x) else x for x in leaves)
-    shapes = tuple((tuple(leaves[i].shape), str(leaves[i].dtype), bool(getattr(leaves[i], "weak_type", False)))
-                   for i in dynamic)
-    try:
-        memo_key = (fn, treedef, static, shapes, jax._src.config.trace_context())
-        entry = _memo.get(memo_key)
-    except TypeError:  # an unhashable static value: fn's own jit would refuse it too
+    dynamic, memo_key = _memo_key(fn, leaves, treedef)
+    if memo_key is None:  # an unhashable static value: fn's own jit would refuse it too
         return fn(*args)
+    ahead = _ahead.pop(memo_key, None)
+    if ahead is not None:  # compiled ahead (compile_ahead): wait for it instead of compiling it twice
+        ahead.join()
+    entry = _memo.get(memo_key)
     if entry is None:
+        shapes = memo_key[3]
         entry = (store and _lowered(fn, leaves, treedef, dynamic, shapes)) or _in_process(fn, leaves, treedef, dynamic)
         _memo[memo_key] = entry
     if entry is False:
@@ -270,6 +271,53 @@ def call(fn, *args, store: bool = True):
         _memo[memo_key] = False  # fn itself from now on, which raises such an error with its own message)
         return fn(*args)
     return out if out_tree is None else jax.tree_util.tree_unflatten(out_tree, out)
+
+
+def _memo_key(fn, leaves, treedef):
+    """``(indices of the array leaves, key of`` :data:`_memo` ``)``; the key ``None`` for an
+    unhashable static value."""
+    dynamic = [i for i, x in enumerate(leaves) if _is_array(x)]
+    static = tuple(None if _is_array(x) else x for x in leaves)
+    shapes = tuple((tuple(leaves[i].shape), str(leaves[i].dtype), bool(getattr(leaves[i], "weak_type", False)))
+                   for i in dynamic)
+    key = (fn, treedef, static, shapes, jax._src.config.trace_context())
+    try:
+        hash(key)
+    except TypeError:
+        return dynamic, None
+    return dynamic, key
+
+
+def compile_ahead(fn, *args) -> bool:
+    """Start tracing and compiling, in a background thread, the program that ``call(fn, *args,
+    store=False)`` runs (the values of ``args`` do not matter, their shapes and static parts do),
+    so that a later call finds it compiled: the compilation overlaps the caller's other work (XLA
+    and the program's execution release the interpreter, so on a second core it costs no wall
+    time). A :func:`call` with that key waits for the thread. Returns whether a thread was started
+    (not where the program is known already, or where :func:`call` would not compile a program of
+    its own: no options, a trace under way). An error in the thread is dropped: the call then
+    compiles (and raises) as usual."""
+    if compiler_options() is None or not _outside_traces():
+        return False
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    if any(isinstance(x, jax.core.Tracer) for x in leaves):
+        return False
+    dynamic, memo_key = _memo_key(fn, leaves, treedef)
+    if memo_key is None or memo_key in _memo or memo_key in _ahead:
+        return False
+    entry = _in_process(fn, leaves, treedef, dynamic)
+    values = [leaves[i] for i in dynamic]
+
+    def work():
+        try:
+            entry[0].lower(*values).compile()  # JAX keeps it: the jitted function's call reuses it
+        except Exception:  # noqa: BLE001  (the call compiles again and reports the error itself)
+            pass
+
+    _memo[memo_key] = entry
+    _ahead[memo_key] = thread = threading.Thread(target=work, name="jaxroll-compile-ahead", daemon=True)
+    thread.start()
+    return True
 
 
 def _in_process(fn, leaves, treedef, dynamic):

@@ -212,6 +212,26 @@ def test_lowered_program_is_stored_loaded_and_gives_the_same_bits(tmp_path, monk
     assert _same_bits(call(_scaled, x, f, "ccc"), _scaled(x, f, "ccc")) and len(_TRACES) == n + 1
 
 
+def test_a_program_compiled_ahead_is_the_one_the_call_runs(caplog, monkeypatch):
+    """:func:`jaxroll._compilation_cache.compile_ahead` (the fit's next window): the program of
+    ``call(fn, *args, store=False)`` traced and compiled in a background thread; the call waits
+    for it and then compiles and traces nothing, with the function's own numbers (another static
+    value or shape is another program, not started twice)."""
+    from _cases import compilations
+
+    monkeypatch.setattr(_compilation_cache, "compiler_options", lambda: {})  # as with jaxroll's options
+    x, f = jnp.linspace(0.2, 1.1, 7), jnp.asarray(1.5)
+    _forget(_scaled)
+    n = len(_TRACES)
+    assert _compilation_cache.compile_ahead(_scaled, x, f, "ahead")
+    assert not _compilation_cache.compile_ahead(_scaled, x + 1.0, f, "ahead")  # the same program: one thread
+    out = []
+    assert compilations(caplog, lambda: out.append(_compilation_cache.call(_scaled, x, f, "ahead", store=False))) == 0
+    assert len(_TRACES) == n + 1  # traced once, in the thread
+    assert _same_bits(out[0], _scaled(x, f, "ahead"))
+    assert not _compilation_cache._ahead  # the call took the thread
+
+
 def test_lowered_programs_folder_keeps_the_recently_used_under_its_cap(tmp_path, monkeypatch):
     """Storing a program trims the folder to its cap, least recently used first; loading a file
     marks it used (its modification time), so it outlives older unused ones."""

@@ -248,7 +248,8 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     Jacobian, so the refit compiles nothing; nor, from the persistent compilation cache, does a
     later process (the program holds no host callback). Here the grids resolved at G0 = 2.7 and
     3.3 MPa over the reduced set (the second one's cells 10 % smaller: a0 ~ G0^-1/2)."""
-    from jaxroll.identify.fit import _data_arrays, _Params, _point_starts, _Problem, _residuals_and_jacobian_jit
+    from jaxroll.identify.fit import (_carried_starts, _data_arrays, _Params, _point_starts, _Problem,
+                                      _residuals_and_jacobian_jit)
 
     data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
     auto = default_method("cylinder", fit=True)
@@ -282,6 +283,14 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     # sigma = 2 % of R_r: 1 % is 0.5)
     r2 = np.asarray(out[0][0])
     assert 0 < np.max(np.abs(r2 - r1)) < 0.5
+    # the run on the second grid (same window) starts from the first one's solutions, their cells
+    # rescaled to the new cell size (_carried_starts): the same numbers as from no start, to the
+    # solver tolerances as above
+    r_c, J_c, _, failed_c = _residuals_and_jacobian_jit(lp, model1, arrays, p2, _carried_starts(finals, m1.grid, m2.grid))
+    assert not np.any(failed_c)
+    np.testing.assert_allclose(np.asarray(r_c), r2, rtol=0, atol=1e-6)
+    J2 = np.asarray(out[0][1])
+    np.testing.assert_allclose(np.asarray(J_c), J2, rtol=0, atol=1e-6 * float(np.max(np.abs(J2))))
     # no host callback (on a layer without inertia the input rules hold by construction), so
     # JAX's persistent compilation cache keeps the program for the next process
     assert "callback" not in _residuals_and_jacobian_jit.lower(lp, model1, arrays, p1, starts).as_text()

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 import warnings
 
@@ -608,6 +609,20 @@ def _point_starts(problem, model, data):
     return none, jnp.asarray(np.ones(n))
 
 
+def _carried_starts(finals, old, new):
+    """Per-point starts (:func:`_point_starts`' form) ``finals``, solved on grid ``old``, for a
+    run on grid ``new`` of the same window (``None`` otherwise): the same cells at another cell
+    size ``h``. :meth:`jaxroll.contact.WarmStart.stretch` maps a start in cells by the ratio of
+    the counting sizes [m]; with the sizes multiplied by ``q = h_new/h_old`` it maps them by the
+    ratio in cells, and the pressure divided and the penetration multiplied by ``q^2`` keep the
+    load and the penetration of the stretched start physical."""
+    if finals is None or old is None or getattr(old, "window", None) != getattr(new, "window", None):
+        return None
+    (warm, sizes), q = finals, float(new.spacing) / float(old.spacing)
+    warm = eqx.tree_at(lambda w: (w.pressure, w.penetration), warm, (warm.pressure / q**2, warm.penetration * q**2))
+    return warm, sizes * q
+
+
 def _data_arrays(rolling, dma, method):
     """The data as jit arguments (not closure constants, which XLA would constant-fold)."""
     data = {}
@@ -689,6 +704,14 @@ MAX_REGRIDS = 3
 #: 7e-5 lower (benchmarks/LOG.md, "The sphere fit's evaluation count").
 REGRID_WITHIN = 0.5
 
+#: Most programs per fit that :func:`fit_material` compiles ahead, in a background thread, for the
+#: window of the grid resolved at the Gauss-Newton minimiser of an accepted point when that differs
+#: from the run's (each window is a program of its own; on a machine with one processor none): the
+#: compilation overlaps the run's remaining evaluations. On the 60-point sphere benchmark the
+#: first evaluation at the start (window 41) already points to the final window (65) (benchmarks/LOG.md,
+#: "The sphere fit's second program compiled ahead"). ``0``: off.
+COMPILE_AHEAD = 2
+
 
 #: Rungs of the fit's window ladder per octave: the window's half-width in cells is rounded up to
 #: ``ceil(2^(j/8))`` (at most 9 % wider), so that grids resolved at other parameters share the
@@ -750,17 +773,21 @@ def _grid_moved(old, new) -> bool:
     return any(max(r, 1 / r) > REGRID_FACTOR for r in ratios)
 
 
-def _host_functions(problem, model, data, progress):
+def _host_functions(problem, model, data, progress, ahead=None, carry=None):
     """Residual and Jacobian in the unconstrained coordinates ``u`` for the least-squares
     driver. Each point is evaluated once, residual and Jacobian together (scipy asks for the
     Jacobian at every accepted point right after its residual). The Jacobian call (made at
-    accepted points) reports progress."""
+    accepted points) reports progress and passes ``(u, r, dr/du)`` to ``ahead`` (if given).
+    ``carry``: a dict whose ``"starts"`` (if not ``None``) are the per-point starts of the first
+    evaluation (:func:`_point_starts`' form, e.g. a previous run's on a grid of the same window),
+    and into which each accepted point's own solutions are written as ``"finals"``."""
     params, names = problem.params, problem.params.names_flat()
     t_start, last, count = time.perf_counter(), {}, [0]
     # each evaluation's contact solves start from the solutions at the last accepted point (the
     # trust region's centre: every trial step starts from there), per point (:func:`_point_starts`)
     none = _point_starts(problem, model, data)
-    accepted = {"starts": none}
+    carry = {} if carry is None else carry
+    accepted = {"starts": none if none is None or carry.get("starts") is None else carry["starts"]}
 
     def evaluate(u):
         if "u" not in last or not np.array_equal(last["u"], u):
@@ -785,7 +812,10 @@ def _host_functions(problem, model, data, progress):
     def jacobian(u):
         e = evaluate(u)
         if e["finals"] is not None and np.all(np.isfinite(e["r"])):
-            accepted["starts"] = e["finals"]
+            accepted["starts"] = carry["finals"] = e["finals"]
+        J = e["J_logp"] * e["slope"][None, :]
+        if ahead is not None and np.all(np.isfinite(e["r"])) and np.all(np.isfinite(J)):
+            ahead(u, e["r"], J)
         if progress:
             count[0] += 1
             values = dict(zip(names, np.exp(e["logp"]).tolist()))
@@ -795,7 +825,7 @@ def _host_functions(problem, model, data, progress):
             else:
                 shown = "  ".join(f"{n}={v:.5g}" for n, v in values.items())
                 print(f"fit: evaluation {count[0]:3d}  chi2 {chi2:.6g}  {shown}  ({elapsed:.1f} s)", flush=True)
-        return e["J_logp"] * e["slope"][None, :]
+        return J
 
     def at(u):
         """``(r, dr/dlogp)`` at ``u``."""
@@ -806,12 +836,12 @@ def _host_functions(problem, model, data, progress):
 
 
 def _multistart(problem, model, data, *, solver, n_starts, spread_decades, seed, max_steps, rtol, progress,
-                stop=None):
+                stop=None, ahead=None, carry=None):
     """Least squares from ``initial`` and ``n_starts - 1`` log-uniform draws around it; returns
     ``(u, converged, cost, r, dr/dlogp)`` of the best start and ``[(cost, converged), ...]``.
     ``stop``: the stopping rule ``(u, r, dr/du) -> bool`` of :func:`jaxroll._lsq.least_squares`."""
     params = problem.params
-    residuals, jacobian, at = _host_functions(problem, model, data, progress)
+    residuals, jacobian, at = _host_functions(problem, model, data, progress, ahead, carry)
     rng = np.random.default_rng(seed)
     logp0 = params.logp0(model)
     starts, best = [], None
@@ -1174,16 +1204,50 @@ def fit_material(
 
         return None if auto is None else stop
 
-    def run(method, model, n_starts, resolved, may_stop=True):
-        """One least-squares run (``may_stop``: with the early stop of :data:`REGRID_WITHIN`, only
-        where a regrid can still follow, so that the fit never ends on an early-stopped run)."""
+    def setup(method, model):
+        """``(params, problem, data)`` of a run on ``method``'s grid from ``model``."""
         params = _Params.of(model, free, bounds)
         problem = _Problem.of(params, None if rolling is None else radius, geometry, method, jac_step)
-        data = _data_arrays(rolling, dma, method)
-        return params, problem, data, _multistart(problem, model, data, solver=solver, n_starts=n_starts,
-                                                  spread_decades=spread_decades, seed=seed, max_steps=max_steps,
-                                                  rtol=rtol, progress=progress,
-                                                  stop=stopping(params, model, resolved) if may_stop else None)
+        return params, problem, _data_arrays(rolling, dma, method)
+
+    ahead_windows = set()
+
+    def compiling_ahead(params, model, method):
+        """At an accepted point of a run on an automatic grid: where the grid resolved at the
+        Gauss-Newton minimiser has another window (a program of its own), that program compiles in
+        a background thread while the run goes on (:data:`COMPILE_AHEAD`)."""
+        def ahead(u, r, J):
+            if len(ahead_windows) >= COMPILE_AHEAD:
+                return
+            target = at(params, u - np.linalg.lstsq(J, r, rcond=None)[0], model)
+            try:  # a guess: a minimiser outside the rule's range compiles nothing
+                guess = _resolve_for_fit(auto, *target[:2], radius, rolling, geometry, dense_lines)[0]
+            except (ValueError, FloatingPointError):
+                return
+            if guess.grid.window in ahead_windows | {method.grid.window}:
+                return
+            ahead_windows.add(guess.grid.window)
+            g_params, g_problem, g_data = setup(guess, target)
+            _compilation_cache.compile_ahead(_residuals_and_jacobian_jit, jnp.asarray(g_params.logp0(target)), target,
+                                             g_data, g_problem, _point_starts(g_problem, target, g_data))
+
+        return None if auto is None or (os.cpu_count() or 1) < 2 else ahead
+
+    carried = {}  # the per-point solutions at the last accepted point and the grid they are on
+
+    def run(method, model, n_starts, resolved, may_stop=True):
+        """One least-squares run (``may_stop``: with the early stop of :data:`REGRID_WITHIN`, only
+        where a regrid can still follow, so that the fit never ends on an early-stopped run); its
+        first evaluation starts from the previous run's last accepted point where the window is the
+        same (:func:`_carried_starts`)."""
+        params, problem, data = setup(method, model)
+        box = {"starts": _carried_starts(carried.get("finals"), carried.get("grid"), method.grid)}
+        out = _multistart(problem, model, data, solver=solver, n_starts=n_starts, spread_decades=spread_decades,
+                          seed=seed, max_steps=max_steps, rtol=rtol, progress=progress,
+                          stop=stopping(params, model, resolved) if may_stop else None,
+                          ahead=compiling_ahead(params, model, method) if may_stop else None, carry=box)
+        carried.update(finals=box.get("finals"), grid=method.grid)
+        return params, problem, data, out
 
     params, problem, data, (u, converged, cost, r, J, starts) = run(method, model, n_starts, resolved,
                                                                     may_stop=MAX_REGRIDS > 0)
