@@ -1,6 +1,6 @@
 """Batched full 3D model: cost per point of every batched entry point against the warm-started table.
 
-    python benchmarks/bench_batched.py [--quick] [--repeat 5] [--only reference|map|vmap]
+    python benchmarks/bench_batched.py [--quick] [--repeat 5] [--only reference|map|vmap|fit]
 
 Rows (the paper's sphere: SLS G0 = 3 MPa, tau = 0.25 s, f = 1, R = 2 cm, H = 30 mm, infinite
 layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
@@ -114,6 +114,8 @@ def reference_rows(args, rows):
     if args.only == "vmap":
         return _vmap_rows(args, rows, n, (table, base), single, (vmap_H, points_H, Hs))
     t_c, c_table = _compile(table, *base)
+    if args.only == "fit":
+        return _fit_rows(args, rows, n, t_c, c_table, base, _fit_evaluation(method.grid, PP, VV, t_c(*base).ravel()))
     s_c, c_single = _compile(single, 3e6, 0.03, 100.0, 0.01)
     p_c, c_points = _compile(points, 3e6, 0.03, PP, VV)
     v_c, c_vmap = _compile(vmap_H, Hs)
@@ -128,9 +130,8 @@ def reference_rows(args, rows):
     t_table2, t_vmap, t_pH = _alternate([(t_c, base), (v_c, (Hs,)), (h_c, (Hs,))], rep)
     check_H = float(jnp.max(jnp.abs(h_c(Hs) / v_c(Hs) - 1)))
     t_table4, t_sv, t_ss = _alternate([(t_c, base), (sv_c, (Hs,)), (ss_c, (Hs,))], rep)
-    t_table3, t_cold, t_warm = _alternate([(t_c, base), (fit_eval, (False,)), (fit_eval, (True,))], rep)
     per = lambda t, k: t / k  # noqa: E731
-    ref = statistics.median([per(t_table, n), per(t_table2, n), per(t_table3, n), per(t_table4, n)])
+    ref = statistics.median([per(t_table, n), per(t_table2, n), per(t_table4, n)])
     size = f"{speeds.size}x{loads.size}, cells {cells * 1e3:g} mm, window {window}"
     rows += [
         ("table (warm-started, baseline)", per(t_table, n), c_table, 1.0, f"{size}; {n} points"),
@@ -146,15 +147,27 @@ def reference_rows(args, rows):
          f"front door per point: {t_sv:.3f} s"),
         ("jr.sweep H x20 (vectorize=False)", per(t_ss, 20), c_ss, per(t_ss, 20) / per(t_table4, n),
          f"front door per point, one after the other: {t_ss:.3f} s"),
-        ("fit evaluation, cold (r and per-point adjoint J, 3 params)", per(t_cold, n), c_fit,
-         per(t_cold, n) / per(t_table3, n),
+    ]
+    _fit_rows(args, rows, n, t_c, c_table, base, (fit_eval, c_fit), table_row=False)
+    return ref
+
+
+def _fit_rows(args, rows, n, t_c, c_table, base, fit, table_row=True):
+    """The two fit-evaluation rows (``fit = (call, compile seconds)`` of :func:`_fit_evaluation`),
+    each run alternating with the table ``t_c(*base)``; ``table_row``: the table's own row first
+    (``--only fit``)."""
+    fit_eval, c_fit = fit
+    t_table, t_cold, t_warm = _alternate([(t_c, base), (fit_eval, (False,)), (fit_eval, (True,))], args.repeat)
+    table = t_table / n
+    rows += [("table (warm-started, baseline)", table, c_table, 1.0, f"{n} points")] if table_row else []
+    rows += [
+        ("fit evaluation, cold (r and per-point adjoint J, 3 params)", t_cold / n, c_fit, t_cold / n / table,
          f"the fit's program on the table's {n} points, smoothed edge at kappa and 2 kappa extrapolated; "
          f"{t_cold:.2f} s per evaluation"),
-        ("fit evaluation, warm (each point from its solution 1 % away)", per(t_warm, n), 0.0,
-         per(t_warm, n) / per(t_table3, n),
+        ("fit evaluation, warm (each point from its solution 1 % away)", t_warm / n, 0.0, t_warm / n / table,
          f"the same program: {t_warm:.2f} s per evaluation; {fit_eval.check}"),
     ]
-    return ref
+    return table
 
 
 def _fit_evaluation(grid, P, V, values):
@@ -311,9 +324,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="coarse grid, 6x15 table, 7x7 map")
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--only", choices=["reference", "map", "vmap"],
+    ap.add_argument("--only", choices=["reference", "map", "vmap", "fit"],
                     help="only the reference-case rows or the map rows; vmap: of the reference rows only the table, "
-                    "the single point and the two rows over 20 thicknesses")
+                    "the single point and the two rows over 20 thicknesses; fit: only the table and the two fit rows")
     ap.add_argument("--record", action="store_true",
                     help="store the rows in benchmarks/numbers.json (see --section)")
     ap.add_argument("--section", help="numbers.json section to record into (default: batched[_quick][_gpu]_"
@@ -327,7 +340,7 @@ def main():
           f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
     load_start = round(os.getloadavg()[0], 1)
     rows = []
-    if args.only in (None, "reference", "vmap"):
+    if args.only in (None, "reference", "vmap", "fit"):
         reference_rows(args, rows)
     if args.only in (None, "map"):
         map_rows(args, rows)

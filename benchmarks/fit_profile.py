@@ -2,6 +2,13 @@
 with every default: CPU and wall seconds, model evaluations (residual and Jacobian together),
 least-squares iterations, XLA compilations and their seconds, time per evaluation.
 
+The evaluations are counted where the fit runs them (``jaxroll._compilation_cache.call`` of
+``_residuals_and_jacobian_jit``), per window, in CPU seconds of the process (all its threads: a
+program compiled ahead in a background thread counts in the evaluations it overlaps). JAX's
+compile events are summed by kind, in wall seconds: tracing to a jaxpr (nested traces counted
+again inside their parents: the largest entries are the programs), lowering to StableHLO, and
+XLA's compilation.
+
 Run: ``python benchmarks/fit_profile.py [--geometry cylinder|sphere] [--points every]``.
 """
 
