@@ -188,6 +188,9 @@ def _fit_evaluation(grid, P, V, values):
     arrays = _data_arrays(data, None, method)
     lp = jnp.asarray(params.logp0(model))
     none = _point_starts(problem, model, arrays)
+    if none is None:  # the per-point reverse pass keeps every point's solve: over the budget, forward mode
+        raise SystemExit(f"the fit's per-point Jacobian of {len(values)} points on this grid needs more than "
+                         f"jr.grids.memory_budget() ({jr.grids.memory_budget() / 2**30:.1f} GiB here); try --quick")
     t = time.perf_counter()
     jax.block_until_ready(_residuals_and_jacobian_jit(lp, model, arrays, problem, none))
     comp = time.perf_counter() - t  # compile and one evaluation

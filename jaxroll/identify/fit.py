@@ -1241,12 +1241,13 @@ def fit_material(
         first evaluation starts from the previous run's last accepted point where the window is the
         same (:func:`_carried_starts`)."""
         params, problem, data = setup(method, model)
-        box = {"starts": _carried_starts(carried.get("finals"), carried.get("grid"), method.grid)}
+        grid = getattr(method, "grid", None)  # (None: DMA data alone)
+        box = {"starts": _carried_starts(carried.get("finals"), carried.get("grid"), grid)}
         out = _multistart(problem, model, data, solver=solver, n_starts=n_starts, spread_decades=spread_decades,
                           seed=seed, max_steps=max_steps, rtol=rtol, progress=progress,
                           stop=stopping(params, model, resolved) if may_stop else None,
                           ahead=compiling_ahead(params, model, method) if may_stop else None, carry=box)
-        carried.update(finals=box.get("finals"), grid=method.grid)
+        carried.update(finals=box.get("finals"), grid=grid)
         return params, problem, data, out
 
     params, problem, data, (u, converged, cost, r, J, starts) = run(method, model, n_starts, resolved,
