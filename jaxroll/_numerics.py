@@ -30,7 +30,6 @@ import warnings
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.scipy.linalg
 import numpy as np
 
 jax.config.update("jax_enable_x64", True)
@@ -250,6 +249,22 @@ def newton_root(fun, x0, *, lower=-jnp.inf, upper=jnp.inf, tol=1e-12, max_steps=
     return x, NewtonInfo(iterations=it.astype(int), residual=res, converged=conv > 0.5)
 
 
+def back_substitute(R, g, j):
+    """``y`` with ``R[:j, :j] y[:j] = g[:j]`` and ``y[j:] = 0``, for an upper triangular ``R``
+    (``m x m``, ``j <= m`` traced) with a nonzero diagonal on its first ``j`` rows.
+
+    A ``fori_loop`` from row ``j - 1`` up, not ``jax.scipy.linalg.solve_triangular``: on CPU that
+    lowers to LAPACK's ``trsm``, whose kernel a process must initialise from SciPy (0.2 s of a
+    second process's first call, which loads stored programs and imports nothing else of SciPy).
+    GMRES solves one such ``m <= 33`` system per cycle, beside ``m`` operator applications.
+    """
+    def row(k, y):
+        i = j - 1 - k
+        return y.at[i].set((g[i] - R[i] @ y) / R[i, i])
+
+    return jax.lax.fori_loop(0, j, row, jnp.zeros_like(g))
+
+
 #: Basis rows of the first Arnoldi steps of :func:`gmres` (see there).
 SHORT_BASIS = 12
 
@@ -327,13 +342,10 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
         return jax.lax.while_loop(lambda s: (s[0] < last) & (jnp.abs(s[4][s[0]]) > atol), arnoldi_step, state)
 
     def correction(j, V, R, g):
-        """``y @ V`` with the triangular ``R[:j, :j] y = g[:j]`` (``m = len(V) - 1`` columns: one
-        triangular solve with unit rows and a zero right-hand side beyond ``j``, no loop)."""
+        """``y @ V`` with the triangular ``R[:j, :j] y = g[:j]`` (``m = len(V) - 1`` columns), by
+        back substitution over the first ``j`` rows (:func:`back_substitute`)."""
         m = V.shape[0] - 1
-        used = jnp.arange(m) < j
-        Rj = jnp.where(used[:, None], R[:m, :m], jnp.eye(m, dtype=dtype))
-        y = jax.scipy.linalg.solve_triangular(Rj, jnp.where(used, g[:m], 0.0), lower=False)
-        return y @ V[:m]
+        return back_substitute(R[:m, :m], g[:m], j) @ V[:m]
 
     short = min(SHORT_BASIS, restart)
 
