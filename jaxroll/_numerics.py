@@ -269,7 +269,7 @@ def back_substitute(R, g, j):
 SHORT_BASIS = 12
 
 
-def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=False):
+def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=False, short_basis=True):
     """Solve ``A x = b`` by restarted GMRES with right preconditioning, for real vectors.
 
     ``matvec(v) = A v``; ``precond(v) = M v`` with ``M ~ A^-1`` (``None``: the identity). Each
@@ -288,6 +288,11 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
     warm-started solves of a table, which mostly stop within a few steps, then neither zero,
     orthogonalise against nor combine the rows of a long basis (the reference table 15 % faster
     with ``restart = 32``).
+
+    ``short_basis=False``: every cycle in the whole basis from its first step (one Arnoldi loop
+    in the program instead of two: a solve from zero that needs most of a cycle, such as a
+    derivative solve, compiles to fewer kernels). ``x0=None``: start from zero (the residual is
+    ``b``, no ``A`` application; not with ``has_aux``).
 
     ``has_aux``: ``matvec(v)`` returns ``(A v, aux)``; ``aux`` of the returned ``x`` (from the
     product that checks its residual, no extra application) is returned too.
@@ -347,7 +352,7 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
         m = V.shape[0] - 1
         return back_substitute(R[:m, :m], g[:m], j) @ V[:m]
 
-    short = min(SHORT_BASIS, restart)
+    short = min(SHORT_BASIS, restart) if short_basis else restart
 
     def cycle(c):
         x, r, rnorm, k, _ = c
@@ -371,7 +376,12 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
         r, rnorm, aux = residual(x)
         return x, r, rnorm, k + 1, aux
 
-    r0, rnorm0, aux0 = residual(x0)
+    if x0 is None:
+        if has_aux:
+            raise ValueError("gmres: x0=None (a start from zero) is not available with has_aux")
+        x0, r0, rnorm0, aux0 = jnp.zeros_like(b), b, jnp.linalg.norm(b), None
+    else:
+        r0, rnorm0, aux0 = residual(x0)
     x, _, rnorm, _, aux = jax.lax.while_loop(lambda c: (c[2] > atol) & (c[3] < maxiter), cycle,
                                              (x0, r0, rnorm0, jnp.asarray(0), aux0))
     return (x, rnorm, aux) if has_aux else (x, rnorm)

@@ -418,6 +418,34 @@ def test_gmres_matches_dense_solve(precondition, restart):
     np.testing.assert_array_equal(np.asarray(aux), 2.0 * np.asarray(x))
     x2, _ = gmres(lambda v: Aj @ v, jnp.asarray(b), x, atol=atol, precond=precond, restart=restart, maxiter=200)
     np.testing.assert_array_equal(np.asarray(x2), np.asarray(x))
+    # from zero without the first product (x0=None) in one basis (short_basis=False, the
+    # derivative solves' form): the same solution to the same tolerance
+    x3, res3 = gmres(lambda v: Aj @ v, jnp.asarray(b), None, atol=atol, precond=precond, restart=restart,
+                     maxiter=200, short_basis=False)
+    assert float(res3) <= atol
+    assert np.linalg.norm(np.asarray(x3) - exact) <= 1e-9 * np.linalg.norm(exact)
+
+
+def test_derivative_solve_on_the_forward_level():
+    """GMRES.solve_derivative with a preconditioner pair (cheap, Deferred robust): without
+    ``robust`` on the robust level, with it on the level the flag names; every choice solves
+    the seeded non-symmetric system of test_gmres_matches_dense_solve (numpy.linalg.solve) to
+    its relative tolerance 1e-12 (times the condition number ~1e2); a poor cheap level (the
+    identity) converges too, in more steps."""
+    from jaxroll.contact.linear import Deferred
+
+    rng = np.random.default_rng(3)
+    n = 60
+    A = np.diag(np.linspace(1.0, 100.0, n)) + 0.5 * rng.normal(size=(n, n))
+    b = rng.normal(size=n)
+    exact = np.linalg.solve(A, b)
+    Aj = jnp.asarray(A)
+    solver = ct.GMRES().resolve(2)
+    pair = (lambda v: v, Deferred(lambda: (lambda v: v / jnp.diag(Aj))))
+    solve = jax.jit(lambda robust: solver.solve_derivative(lambda v: Aj @ v, jnp.asarray(b), pair, 1e-12, robust))
+    for x in (solve(jnp.asarray(False)), solve(jnp.asarray(True)),
+              solver.solve_derivative(lambda v: Aj @ v, jnp.asarray(b), pair, 1e-12)):
+        assert np.linalg.norm(np.asarray(x) - exact) <= 1e-9 * np.linalg.norm(exact)
 
 
 def test_circulant_window_apply_equals_full_fft():

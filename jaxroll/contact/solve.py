@@ -324,9 +324,9 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         def tangent_solve(g, y):
             return jax.lax.custom_linear_solve(
                 g, y,
-                solve=lambda f, bb: solver.solve_derivative(f, bb, active_set_precond(mask), tol),
+                solve=lambda f, bb: solver.solve_derivative(f, bb, active_set_precond(mask), tol, robust),
                 transpose_solve=lambda f, bb: solver.solve_derivative(f, bb, active_set_precond(mask, True),
-                                                                      tol),
+                                                                      tol, robust),
             )
 
         x = jax.lax.custom_root(lambda x: mv(x) - b, x_exact, lambda f, x0: x0, tangent_solve)
