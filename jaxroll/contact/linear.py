@@ -139,8 +139,9 @@ class GMRES(AbstractLinearSolver):
             :data:`FALLBACK_RESTART` with the preconditioner, none without; ``0``: none). It is
             skipped where the first solve converges (under ``vmap`` it runs for every lane once one lane needs it), and
             makes the solves robust at fine resolution, where a short basis stagnates. The
-            implicit-derivative solves (:meth:`solve_derivative`) run GMRES(``restart``) with the
-            robust level alone.
+            implicit-derivative solves (:meth:`solve_derivative`) run one GMRES from zero: of an
+            exact contact, GMRES(:data:`DERIVATIVE_RESTART`) on the level the forward solves
+            ended with; of the smoothed edge, GMRES(``restart``) on the robust level.
         preconditioner: right-precondition with the circulant approximation of the compliance on
             the contact set (:mod:`jaxroll.contact.precondition`). Default ``None``: on for 2D
             windows (the 3D sphere: 4-15x fewer operator applications), off in 1D (the default
