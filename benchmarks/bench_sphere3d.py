@@ -15,12 +15,14 @@ repeats.
 Reports the device, resolution, the points that are not valid (``RollingResult.result``), the
 active-set iterations and the compiled working memory. ``--quick``: 6 speeds x 4 loads, cells
 0.5 mm, 250 terms, one repeat. ``--programs``: also the size of each program (StableHLO text, its
-while loops and FFTs) and its compile time in process CPU seconds (steadier than wall time on a
-shared machine), lowered and compiled again apart from the timed runs. ``--count``: also the
-active-set steps and the circulant applications per solve (``C``: the compliance, i.e. the
-Krylov operator plus the residual checks, the displacement and the dissipation; ``M``: the
-preconditioner), counted with the debug callback of ``contact_iterations.py`` in one more run of a
-separately compiled table (the callbacks cost time, so never in the timed runs).
+while loops, FFTs and the compiled program's fusions) and its compile time in process CPU seconds
+(steadier than wall time on a shared machine), lowered and compiled again apart from the timed
+runs; with ``--grad`` also the gradient's forward pass (``jax.vjp``) and backward pass apart.
+``--count``: also the active-set steps and the circulant applications per solve (``C``: the
+compliance, i.e. the Krylov operator plus the residual checks, the displacement and the
+dissipation; ``M``: the preconditioner), counted with the debug callback of
+``contact_iterations.py`` in one more run of a separately compiled table (the callbacks cost
+time, so never in the timed runs).
 """
 
 from __future__ import annotations
@@ -114,6 +116,7 @@ def main():
         grad_note = f"; gradient (G0, tau, f, H) {gmed:.2f} s = {gmed / med:.2f}x, compile {gcomp:.1f} s"
         if args.programs:
             program_report("gradient", jax.grad(objective, argnums=(0, 1, 2, 3)), theta)
+            gradient_split(objective, theta)
     size = f"{len(speeds)}x{len(loads)}, a = {spacing * 1e3:g} mm, H = {args.H * 1e3:g} mm, " + (
         "infinite layer" if period is None else f"L = {period} m, {n_terms} terms")
     summary("bench_sphere3d.py" + (" --quick" if args.quick else "") + f" --H {args.H} --period {args.period}",
@@ -142,8 +145,21 @@ def count_report(table, theta):
           f"{COUNT['C'] / n:.1f} compliance and {COUNT['M'] / n:.1f} preconditioner applications")
 
 
+def gradient_split(objective, theta):
+    """The gradient's program in two parts (:func:`program_report` of each): the forward pass that
+    keeps what reverse mode needs (``jax.vjp``) and the backward pass alone (the ``vjp`` function
+    applied to a unit cotangent)."""
+    def forward(*th):
+        return jax.vjp(lambda *p: objective(*p, *th[4:]), *th[:4])
+
+    program_report("gradient's forward pass", forward, theta)
+    _, vjp = jax.jit(forward)(*theta)
+    program_report("gradient's backward pass", lambda v, c: v(c), (vjp, jnp.ones(())))
+
+
 def program_report(name, fn, args):
-    """Print the size of ``jax.jit(fn)``'s program at ``args`` and its compile time in CPU seconds."""
+    """Print the size of ``jax.jit(fn)``'s program at ``args`` (StableHLO, while loops, FFTs; the
+    compiled program's fusions, i.e. its kernels) and its compile time in CPU seconds."""
     jax.clear_caches()  # compile anew: neither the timed runs' program nor the persistent cache's
     cached = jax.config.jax_enable_compilation_cache
     jax.config.update("jax_enable_compilation_cache", False)
@@ -151,12 +167,13 @@ def program_report(name, fn, args):
         lowered = jax.jit(fn).lower(*args)
         text = lowered.as_text()
         cpu, wall = time.process_time(), time.perf_counter()
-        lowered.compile(compiler_options())
+        compiled = lowered.compile(compiler_options())
         cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     finally:
         jax.config.update("jax_enable_compilation_cache", cached)
     print(f"program {name}: StableHLO {len(text) / 1e6:.2f} MB, {len(re.findall(r'stablehlo.while', text))} while "
-          f"loops, {len(re.findall(r'stablehlo.fft', text))} FFTs; compile {cpu:.1f} s CPU ({wall:.1f} s wall, "
+          f"loops, {len(re.findall(r'stablehlo.fft', text))} FFTs, {compiled.as_text().count(' fusion(')} fusions; "
+          f"compile {cpu:.1f} s CPU ({wall:.1f} s wall, "
           f"load avg {os.getloadavg()[0]:.1f})")
 
 

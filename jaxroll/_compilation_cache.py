@@ -370,7 +370,7 @@ def _is_array(x) -> bool:
     return isinstance(x, (jax.Array, np.ndarray))
 
 
-#: Prefix of jaxlib's LAPACK kernels (e.g. ``lapack_dtrsm_ffi``, GMRES's triangular solve).
+#: Prefix of jaxlib's LAPACK kernels (e.g. ``lapack_dtrsm_ffi``, a triangular solve).
 _LAPACK = "lapack_"
 
 

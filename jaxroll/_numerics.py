@@ -30,7 +30,6 @@ import warnings
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.scipy.linalg
 import numpy as np
 
 jax.config.update("jax_enable_x64", True)
@@ -250,11 +249,27 @@ def newton_root(fun, x0, *, lower=-jnp.inf, upper=jnp.inf, tol=1e-12, max_steps=
     return x, NewtonInfo(iterations=it.astype(int), residual=res, converged=conv > 0.5)
 
 
+def back_substitute(R, g, j):
+    """``y`` with ``R[:j, :j] y[:j] = g[:j]`` and ``y[j:] = 0``, for an upper triangular ``R``
+    (``m x m``, ``j <= m`` traced) with a nonzero diagonal on its first ``j`` rows.
+
+    A ``fori_loop`` from row ``j - 1`` up, not ``jax.scipy.linalg.solve_triangular``: on CPU that
+    lowers to LAPACK's ``trsm``, whose kernel a process must initialise from SciPy (0.2 s of a
+    second process's first call, which loads stored programs and imports nothing else of SciPy).
+    GMRES solves one such ``m <= 33`` system per cycle, beside ``m`` operator applications.
+    """
+    def row(k, y):
+        i = j - 1 - k
+        return y.at[i].set((g[i] - R[i] @ y) / R[i, i])
+
+    return jax.lax.fori_loop(0, j, row, jnp.zeros_like(g))
+
+
 #: Basis rows of the first Arnoldi steps of :func:`gmres` (see there).
 SHORT_BASIS = 12
 
 
-def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=False):
+def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=False, short_basis=True):
     """Solve ``A x = b`` by restarted GMRES with right preconditioning, for real vectors.
 
     ``matvec(v) = A v``; ``precond(v) = M v`` with ``M ~ A^-1`` (``None``: the identity). Each
@@ -273,6 +288,11 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
     warm-started solves of a table, which mostly stop within a few steps, then neither zero,
     orthogonalise against nor combine the rows of a long basis (the reference table 15 % faster
     with ``restart = 32``).
+
+    ``short_basis=False``: every cycle in the whole basis from its first step (one Arnoldi loop
+    in the program instead of two: a solve from zero that needs most of a cycle, such as a
+    derivative solve, compiles to fewer kernels). ``x0=None``: start from zero (the residual is
+    ``b``, no ``A`` application; not with ``has_aux``).
 
     ``has_aux``: ``matvec(v)`` returns ``(A v, aux)``; ``aux`` of the returned ``x`` (from the
     product that checks its residual, no extra application) is returned too.
@@ -327,15 +347,12 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
         return jax.lax.while_loop(lambda s: (s[0] < last) & (jnp.abs(s[4][s[0]]) > atol), arnoldi_step, state)
 
     def correction(j, V, R, g):
-        """``y @ V`` with the triangular ``R[:j, :j] y = g[:j]`` (``m = len(V) - 1`` columns: one
-        triangular solve with unit rows and a zero right-hand side beyond ``j``, no loop)."""
+        """``y @ V`` with the triangular ``R[:j, :j] y = g[:j]`` (``m = len(V) - 1`` columns), by
+        back substitution over the first ``j`` rows (:func:`back_substitute`)."""
         m = V.shape[0] - 1
-        used = jnp.arange(m) < j
-        Rj = jnp.where(used[:, None], R[:m, :m], jnp.eye(m, dtype=dtype))
-        y = jax.scipy.linalg.solve_triangular(Rj, jnp.where(used, g[:m], 0.0), lower=False)
-        return y @ V[:m]
+        return back_substitute(R[:m, :m], g[:m], j) @ V[:m]
 
-    short = min(SHORT_BASIS, restart)
+    short = min(SHORT_BASIS, restart) if short_basis else restart
 
     def cycle(c):
         x, r, rnorm, k, _ = c
@@ -359,7 +376,12 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
         r, rnorm, aux = residual(x)
         return x, r, rnorm, k + 1, aux
 
-    r0, rnorm0, aux0 = residual(x0)
+    if x0 is None:
+        if has_aux:
+            raise ValueError("gmres: x0=None (a start from zero) is not available with has_aux")
+        x0, r0, rnorm0, aux0 = jnp.zeros_like(b), b, jnp.linalg.norm(b), None
+    else:
+        r0, rnorm0, aux0 = residual(x0)
     x, _, rnorm, _, aux = jax.lax.while_loop(lambda c: (c[2] > atol) & (c[3] < maxiter), cycle,
                                              (x0, r0, rnorm0, jnp.asarray(0), aux0))
     return (x, rnorm, aux) if has_aux else (x, rnorm)

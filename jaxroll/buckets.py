@@ -22,6 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._numerics import as_float
 from ._xla_options import compiler_options
 
 __all__ = ["padded", "class_lengths", "compiled", "evaluate_buckets"]
@@ -96,7 +97,7 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
         m.check_memory(geometry)
         idx = idx[np.argsort(speeds[idx], kind="stable")]
         pad, count = padded(idx, length)
-        args = (m.dynamic(), material, layer, jnp.asarray(radius, float), jnp.asarray(loads[pad]),
+        args = (m.dynamic(), material, layer, as_float(radius), jnp.asarray(loads[pad]),
                 jnp.asarray(speeds[pad]), jnp.asarray(count))
         call, c = compiled(_points_program, args, dict(geometry=geometry))
         t = time.perf_counter()

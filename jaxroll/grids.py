@@ -66,6 +66,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _compilation_cache
+from ._numerics import as_float
 from .engines.contact_size import dynamic_contact_size, estimate_contact_size
 
 __all__ = ["AutoGrid", "FixedGrid", "PERIOD_FACTOR", "union"]
@@ -870,7 +871,7 @@ def _estimated_sizes(material, layer, radius, loads, geometry):
 
 def _sizes(material, layer, radius, loads, geometry):
     """Estimated contact sizes [m] of every load (host NumPy)."""
-    r = np.asarray(_compilation_cache.call(_estimated_sizes, material, layer, jnp.asarray(radius, float),
+    r = np.asarray(_compilation_cache.call(_estimated_sizes, material, layer, as_float(radius),
                                            jnp.asarray(loads), geometry))
     if not np.all(np.isfinite(r) & (r > 0)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
@@ -888,7 +889,7 @@ def _grid_sizes(material, layer, radius, loads, speeds, geometry):
     below the relaxed size (:func:`_quantised`), so that the points of a map share a few sizes."""
     loads = np.atleast_1d(np.asarray(loads, float)).ravel()
     speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), loads.shape)
-    r = np.asarray(_compilation_cache.call(_counting_table, material, layer, jnp.asarray(radius, float),
+    r = np.asarray(_compilation_cache.call(_counting_table, material, layer, as_float(radius),
                                            jnp.asarray(loads), jnp.asarray(speeds), geometry))
     if not np.all(np.isfinite(r) & (r > 0)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")

@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import check_plausible
+from ._numerics import as_float, check_plausible
 from .engines.stack import cover_thickness, with_cover_material, with_cover_thickness
 from .io import write_table
 
@@ -253,7 +253,7 @@ def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, di
 
     idx = idx[np.lexsort((P[idx], np.round(np.log(Vr[idx]), 12)))]
     pad, count = padded(idx, length)
-    args = (method.dynamic(), material, shift, layer, jnp.asarray(radius, float), jnp.asarray(P[pad]),
+    args = (method.dynamic(), material, shift, layer, as_float(radius), jnp.asarray(P[pad]),
             jnp.asarray(T[pad]), jnp.asarray(V[pad]), jnp.asarray(count), directions)
     call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced))
     return call, args, idx

@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import contact as _contact
+from ._numerics import as_float
 from .contact.linear import check_linear_solver
 from .engines import cylinder, direct, slices, sphere3d
 from .engines.stack import models
@@ -126,7 +127,7 @@ class AbstractMethod(eqx.Module):
     def dynamic(self) -> "AbstractMethod":
         """The method with the lengths of its grids as float64 arrays, so that the compiled
         program takes them as values (a new cell size or period does not recompile)."""
-        return jax.tree_util.tree_map(lambda v: jnp.asarray(v, jnp.float64) if isinstance(v, float) else v, self)
+        return jax.tree_util.tree_map(lambda v: as_float(v) if isinstance(v, float) else v, self)
 
 
 def _check_grid(grid, name):

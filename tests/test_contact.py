@@ -392,6 +392,14 @@ def test_penetration_mode_reproduces_load_mode_2d():
 # ---------------------------------------------------------------------------------------------
 
 
+def _seeded_system(n=60):
+    """A seeded non-symmetric ``(A, b, numpy.linalg.solve(A, b))``, condition ~1e2."""
+    rng = np.random.default_rng(3)
+    A = np.diag(np.linspace(1.0, 100.0, n)) + 0.5 * rng.normal(size=(n, n))
+    b = rng.normal(size=n)
+    return A, b, np.linalg.solve(A, b)
+
+
 @pytest.mark.parametrize("precondition, restart", [(False, 8), (True, 8), (True, 40)])
 def test_gmres_matches_dense_solve(precondition, restart):
     """jaxroll._numerics.gmres against numpy.linalg.solve on a seeded non-symmetric system
@@ -402,12 +410,8 @@ def test_gmres_matches_dense_solve(precondition, restart):
     from jaxroll._numerics import SHORT_BASIS, gmres
 
     assert restart < SHORT_BASIS or restart > SHORT_BASIS + 10  # 40: more steps than the short basis
-    rng = np.random.default_rng(3)
-    n = 60
-    A = np.diag(np.linspace(1.0, 100.0, n)) + 0.5 * rng.normal(size=(n, n))
-    b = rng.normal(size=n)
-    exact = np.linalg.solve(A, b)
-    Aj = jnp.asarray(A)
+    A, b, exact = _seeded_system()
+    n, Aj = len(b), jnp.asarray(A)
     precond = (lambda v: v / jnp.diag(Aj)) if precondition else None
     atol = 1e-12 * np.linalg.norm(b)
     x, res, aux = jax.jit(lambda b, x0: gmres(lambda v: (Aj @ v, 2.0 * v), b, x0, atol=atol, precond=precond,
@@ -418,6 +422,30 @@ def test_gmres_matches_dense_solve(precondition, restart):
     np.testing.assert_array_equal(np.asarray(aux), 2.0 * np.asarray(x))
     x2, _ = gmres(lambda v: Aj @ v, jnp.asarray(b), x, atol=atol, precond=precond, restart=restart, maxiter=200)
     np.testing.assert_array_equal(np.asarray(x2), np.asarray(x))
+    # from zero without the first product (x0=None) in one basis (short_basis=False, the
+    # derivative solves' form): the same solution to the same tolerance
+    x3, res3 = gmres(lambda v: Aj @ v, jnp.asarray(b), None, atol=atol, precond=precond, restart=restart,
+                     maxiter=200, short_basis=False)
+    assert float(res3) <= atol
+    assert np.linalg.norm(np.asarray(x3) - exact) <= 1e-9 * np.linalg.norm(exact)
+
+
+def test_derivative_solve_on_the_forward_level():
+    """GMRES.solve_derivative with a preconditioner pair (cheap, Deferred robust): without
+    ``robust`` on the robust level, with it on the level the flag names; every choice solves
+    the seeded non-symmetric system of :func:`_seeded_system` (numpy.linalg.solve) to
+    its relative tolerance 1e-12 (times the condition number ~1e2); a poor cheap level (the
+    identity) converges too, in more steps."""
+    from jaxroll.contact.linear import Deferred
+
+    A, b, exact = _seeded_system()
+    Aj = jnp.asarray(A)
+    solver = ct.GMRES().resolve(2)
+    pair = (lambda v: v, Deferred(lambda: (lambda v: v / jnp.diag(Aj))))
+    solve = jax.jit(lambda robust: solver.solve_derivative(lambda v: Aj @ v, jnp.asarray(b), pair, 1e-12, robust))
+    for x in (solve(jnp.asarray(False)), solve(jnp.asarray(True)),
+              solver.solve_derivative(lambda v: Aj @ v, jnp.asarray(b), pair, 1e-12)):
+        assert np.linalg.norm(np.asarray(x) - exact) <= 1e-9 * np.linalg.norm(exact)
 
 
 def test_circulant_window_apply_equals_full_fft():

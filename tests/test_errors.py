@@ -351,7 +351,7 @@ jax.monitoring.register_event_listener(lambda name, **kw: hits.append(name == "/
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)  # store even this tiny program
 
 @jax.jit
-def solve(a, b):  # a LAPACK kernel (triangular solve), as in the contact solver's GMRES
+def solve(a, b):  # a LAPACK kernel (triangular solve), as a user's function may hold
     return jax.scipy.linalg.solve_triangular(a, b, lower=True)
 
 a = jnp.tril(jnp.arange(1.0, 17.0).reshape(4, 4)) + 4 * jnp.eye(4)

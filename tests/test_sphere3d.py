@@ -356,15 +356,51 @@ def test_gradients_vs_finite_differences(params):
     assert abs(float(g_v) - fd) <= 1e-3 * abs(fd)
 
 
+@pytest.mark.slow
+def test_table_gradient_vs_finite_differences():
+    # the table's derivative rule (each point implicit on its converged set, one adjoint solve on
+    # the preconditioner level its forward solves ended with; the loads of a speed in a scan) vs
+    # central differences of the sum over a 2 x 2 table w.r.t. G0, H and tau; step 1e-5 |p|
+    # keeps the contact sets; FD error O(h^2) + solver tol/h ~ 1e-5, 1e-4 allowed (the default
+    # suite's copy: d/dG0 of a 1 x 2 table in test_result_and_grid)
+    lay_H, loads, speeds = 0.03, jnp.asarray([6.0, 10.0]), jnp.asarray([3e-3, 3e-2])
+    grid = _grid(A_H / CPR)
+
+    def total(theta):
+        G, H, tau = theta
+        out = jr.Full(grid=grid).evaluate_grid(jr.StandardLinearSolid(G, tau, F), jr.Layer(H), R, loads, speeds,
+                                               "sphere")
+        return jnp.sum(out.value)
+
+    theta = jnp.asarray([G0, lay_H, TAU])
+    f = jax.jit(total)
+    g = np.asarray(jax.jit(jax.grad(total))(theta))
+    for i in range(3):
+        e = np.zeros(3)
+        e[i] = 1e-5 * float(theta[i])
+        fd = (float(f(theta + e)) - float(f(theta - e))) / (2 * e[i])
+        assert g[i] == pytest.approx(fd, rel=1e-4), (i, g[i], fd)
+
+
 def test_result_and_grid():
     # RollingResult fields; the speeds x loads table equals single solves (same grid) to solver
-    # tolerance
+    # tolerance; its derivative (one program with the values) equals central differences of the
+    # sum over the loads w.r.t. G0 (step 1e-5 G0 keeps the contact sets; FD error O(h^2) + solver
+    # tol/h ~ 1e-5, 1e-4 allowed)
     lay = jr.Layer(0.03)
     loads = jnp.asarray([6.0, 10.0])
     V = 3e-3
     grid = _grid(A_H / CPR)
-    sw = jax.jit(lambda G, g: jr.Full(grid=g).evaluate_grid(jr.StandardLinearSolid(G, TAU, F), lay, R, loads,
-                                                            jnp.asarray([V]), "sphere"))(G0, grid)
+
+    def table(G, g):
+        out = jr.Full(grid=g).evaluate_grid(jr.StandardLinearSolid(G, TAU, F), lay, R, loads, jnp.asarray([V]),
+                                            "sphere")
+        return jnp.sum(out.value), out
+
+    with_grad = jax.jit(jax.value_and_grad(table, has_aux=True))
+    (_, sw), dG = with_grad(G0, grid)
+    fd = (float(with_grad(G0 * (1 + 1e-5), grid)[0][0]) - float(with_grad(G0 * (1 - 1e-5), grid)[0][0])) / (2e-5 * G0)
+    assert float(dG) == pytest.approx(fd, rel=1e-4)
     assert sw.value.shape == (1, 2) and sw.solution.pressure.shape == (1, 2, W, W)
     for j, Pj in enumerate([6.0, 10.0]):
         o = _solve(_theta(H=0.03, load=Pj), V, A_H / CPR)

@@ -53,6 +53,11 @@ FIRST_SOLVE_CYCLES = 1
 #: Krylov iterations of a solve without fallback (restarts = this // restart), and of the fallback
 #: solve (which follows at most ``FIRST_SOLVE_CYCLES`` cycles of the first).
 MAX_KRYLOV_ITERATIONS = 1600
+#: Basis size of an exact contact's derivative solve (:meth:`GMRES.solve_derivative` given the
+#: forward's preconditioner level): one Arnoldi loop in one basis (no short-then-long basis as in
+#: the forward solves), large enough for the ~11-13 Krylov steps such a solve takes from zero on
+#: the paper's reference case.
+DERIVATIVE_RESTART = 16
 
 
 class Deferred:
@@ -109,11 +114,13 @@ class AbstractLinearSolver(eqx.Module):
             return x, robust, matvec(x)[1]
         return self.solve(matvec, b, x0, precond, rtol), robust
 
-    def solve_derivative(self, matvec, b, precond, rtol) -> jax.Array:
+    def solve_derivative(self, matvec, b, precond, rtol, robust=None) -> jax.Array:
         """``x`` with ``|b - A x| <= rtol |b|`` from a zero start, for the tangent and adjoint
-        systems of the implicit derivatives (one solve each, on the converged contact set):
-        with a preconditioner pair only its robust level, in one solver (no cheap-first
-        cycle and no fallback branch in the program). Default: :meth:`solve`."""
+        systems of the implicit derivatives (one solve each, on the converged contact set),
+        in one solver (no cheap-first cycle and no fallback branch in the program). With a
+        preconditioner pair: its robust level, or with ``robust`` (a traced bool: whether the
+        forward solves of the same system ended on the robust level) the level the forward
+        solves ended with. Default: :meth:`solve`."""
         robust = _built(precond[1] if isinstance(precond, tuple) else precond)
         return self.solve(matvec, b, None, robust, rtol)
 
@@ -132,8 +139,9 @@ class GMRES(AbstractLinearSolver):
             :data:`FALLBACK_RESTART` with the preconditioner, none without; ``0``: none). It is
             skipped where the first solve converges (under ``vmap`` it runs for every lane once one lane needs it), and
             makes the solves robust at fine resolution, where a short basis stagnates. The
-            implicit-derivative solves (:meth:`solve_derivative`) run GMRES(``restart``) with the
-            robust level alone.
+            implicit-derivative solves (:meth:`solve_derivative`) run one GMRES from zero: of an
+            exact contact, GMRES(:data:`DERIVATIVE_RESTART`) on the level the forward solves
+            ended with; of the smoothed edge, GMRES(``restart``) on the robust level.
         preconditioner: right-precondition with the circulant approximation of the compliance on
             the contact set (:mod:`jaxroll.contact.precondition`). Default ``None``: on for 2D
             windows (the 3D sphere: 4-15x fewer operator applications), off in 1D (the default
@@ -170,13 +178,23 @@ class GMRES(AbstractLinearSolver):
     def solve(self, matvec, b, x0, precond, rtol):
         return self.solve_tracked(matvec, b, x0, precond, rtol, None)[0]
 
-    def solve_derivative(self, matvec, b, precond, rtol):
-        # one GMRES(restart) with the robust level: the derivative solves need no set decisions,
-        # and one Krylov solver in the program instead of two keeps the gradient's compile short
-        robust = _built(precond[1] if isinstance(precond, tuple) else precond)
-        x, _ = gmres(matvec, b, jnp.zeros_like(b), atol=rtol * jnp.linalg.norm(b),
-                     precond=robust if self.preconditioned else None, restart=self.restart,
-                     maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.restart))
+    def solve_derivative(self, matvec, b, precond, rtol, robust=None):
+        # one GMRES loop: the derivative solves need no set decisions, and one Krylov solver in
+        # the program instead of two keeps the gradient's compile short; from zero (the first
+        # residual is b: no product). Without `robust`: GMRES(restart) with the robust level.
+        # With it (an exact contact's solves): the level the forward solves ended with (the
+        # transposed system has the same spectrum: the cheap one where it sufficed there), in one
+        # basis of DERIVATIVE_RESTART rows (one Arnoldi loop instead of the short and long ones)
+        atol = rtol * jnp.linalg.norm(b)
+        if robust is None or not (self.preconditioned and isinstance(precond, tuple)):
+            whole = _built(precond[1] if isinstance(precond, tuple) else precond)
+            x, _ = gmres(matvec, b, None, atol=atol, precond=whole if self.preconditioned else None,
+                         restart=self.restart, maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.restart))
+            return x
+        cheap, whole = precond[0], _built(precond[1])
+        x, _ = gmres(matvec, b, None, atol=atol, precond=lambda v: jax.lax.cond(robust, whole, cheap, v),
+                     restart=DERIVATIVE_RESTART, maxiter=MAX_KRYLOV_ITERATIONS // DERIVATIVE_RESTART,
+                     short_basis=False)
         return x
 
     def solve_tracked(self, matvec, b, x0, precond, rtol, robust, has_aux=False):

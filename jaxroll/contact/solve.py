@@ -30,9 +30,11 @@ depends on ``T`` (material, layer, speed) and whose right-hand side depends on `
 (or the prescribed ``d``).
 The converged unknowns are returned as the root of that system through
 :func:`jax.lax.custom_root` (the forward pass costs no extra solve), so derivatives of any functional of the solution follow from the implicit function
-theorem (one adjoint GMRES solve, from zero to the relative residual ``tol`` with the whole
-embedding's preconditioner: derivatives to ~``tol`` relative, measured 2e-11 on the reference
-table's gradient against solves at ``1e-3 tol``), never from unrolling the active-set iterations (which run
+theorem (one adjoint GMRES solve, from zero to the relative residual ``tol``, on the
+preconditioner level the forward solves of the same contact ended with (the folded one unless
+they needed the whole embedding's; :meth:`~jaxroll.contact.linear.GMRES.solve_derivative`):
+derivatives to ~``tol`` relative, measured 2e-11 on the reference table's gradient against
+solves at ``1e-3 tol`` and 3e-11 between the two levels), never from unrolling the active-set iterations (which run
 on ``stop_gradient`` inputs). The contact set is piecewise constant in the parameters; at a
 contact-edge event the derivative is the finite one-sided derivative of the discrete problem.
 
@@ -324,9 +326,9 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         def tangent_solve(g, y):
             return jax.lax.custom_linear_solve(
                 g, y,
-                solve=lambda f, bb: solver.solve_derivative(f, bb, active_set_precond(mask), tol),
+                solve=lambda f, bb: solver.solve_derivative(f, bb, active_set_precond(mask), tol, robust),
                 transpose_solve=lambda f, bb: solver.solve_derivative(f, bb, active_set_precond(mask, True),
-                                                                      tol),
+                                                                      tol, robust),
             )
 
         x = jax.lax.custom_root(lambda x: mv(x) - b, x_exact, lambda f, x0: x0, tangent_solve)

@@ -119,7 +119,9 @@ class Layer(eqx.Module):
 
     def __check_init__(self):
         # +inf is the half-space; -inf, NaN and H <= 0 are errors
-        _require("H", jnp.where(self.H == jnp.inf, 1.0, self.H) if isinstance(self.H, jax.Array) else self.H,
+        # on the host (NumPy: an eager jnp.where would compile two programs in a new process)
+        H = self.H if isinstance(self.H, jax.core.Tracer) or not isinstance(self.H, jax.Array) else np.asarray(self.H)
+        _require("H", np.where(H == np.inf, 1.0, H) if isinstance(H, np.ndarray) else H,
                  lambda v: v > 0, "a positive thickness in m (or jnp.inf for a half-space)")
         _require("rho", np.asarray(self.rho) if isinstance(self.rho, float) else self.rho, lambda v: v >= 0,
                  "a non-negative density in kg/m^3")
