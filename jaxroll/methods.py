@@ -330,9 +330,10 @@ class Full(_GridMethod):
         """The table ``speeds x loads``: the speed-independent layer work once, the kernel once per
         speed (a ``lax.scan`` over speeds: memory bounded), the loads of a speed in a ``lax.scan``
         in the given order (give loads sorted). Each solve starts from its neighbour
-        (:meth:`jaxroll.contact.WarmStart.stretched`): the previous load's solution stretched by
-        the ratio of the counting sizes (:func:`jaxroll.grids.counting_size`), or for a speed's first load the previous
-        speed's first solution. Each point equals :meth:`evaluate` to the solver tolerance."""
+        (:meth:`jaxroll.contact.WarmStart.extrapolated`): the previous load's solution, extrapolated
+        from the load before and stretched by the ratio of the counting sizes
+        (:func:`jaxroll.grids.counting_size`), or for a speed's first load the previous speed's
+        first solution. Each point equals :meth:`evaluate` to the solver tolerance."""
         model = _FULL_MODELS[geometry]
         build = model.kernel_builder(material, layer, self.grid)
         # the load ratio from each load to the next (the last pair is not used)
@@ -352,7 +353,7 @@ class Full(_GridMethod):
                 s = self._solve(model, kernel, R, P, size, init=start)
                 first = jax.tree_util.tree_map(lambda a, b: jnp.where(is_first, a, b),
                                                _contact.WarmStart.of(s.contact), first)
-                return ((_contact.WarmStart.stretched(s.contact, s_next, r_next), first),
+                return ((_contact.WarmStart.extrapolated(start, s.contact, s_next, r_next, ~is_first), first),
                         self._result(model, s, layer, V, material))
 
             step = jax.checkpoint(step, prevent_cse=False, policy=_contact.SAVED_FOR_DERIVATIVES)
