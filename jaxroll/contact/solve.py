@@ -17,7 +17,7 @@ repeats. Each step's linear system is solved by a :mod:`~jaxroll.contact.linear`
 :func:`~jaxroll.contact.active_set.find_contact_set`.
 
 Speed (``benchmarks/bench_sphere3d.py``, the paper's reference case of 345 solves): each solve
-takes ~4 active-set steps and ~33 operator applications; an operator application is one FFT
+takes ~3 active-set steps and ~25 operator applications; an operator application is one FFT
 pair pruned to the window (:func:`~jaxroll.contact.operator.circulant_window_apply`), a
 preconditioner application one FFT pair of the folded period (about a quarter of the points; of
 the same embedding where a solve stagnated, :mod:`~jaxroll.contact.precondition`), and the Krylov bookkeeping
