@@ -331,9 +331,11 @@ class Full(_GridMethod):
         """The table ``speeds x loads``: the speed-independent layer work once, the kernel once per
         speed (a ``lax.scan`` over speeds: memory bounded), the loads of a speed in a ``lax.scan``
         in the given order (give loads sorted). Each solve starts from its neighbour
-        (:meth:`jaxroll.contact.WarmStart.stretched`): the previous load's solution stretched by
-        the ratio of the counting sizes (:func:`jaxroll.grids.counting_size`), or for a speed's first load the previous
-        speed's first solution. Each point equals :meth:`evaluate` to the solver tolerance."""
+        (:meth:`jaxroll.contact.WarmStart.extrapolated`): the previous load's solution, extrapolated
+        from the load before (2D windows; 1D: :meth:`~jaxroll.contact.WarmStart.stretched`) and
+        stretched by the ratio of the counting sizes (:func:`jaxroll.grids.counting_size`), or for
+        a speed's first load the previous speed's first solution. Each point equals
+        :meth:`evaluate` to the solver tolerance."""
         model = _FULL_MODELS[geometry]
         build = model.kernel_builder(material, layer, self.grid)
         # the load ratio from each load to the next (the last pair is not used)
@@ -341,6 +343,7 @@ class Full(_GridMethod):
         shape = (self.grid.window,) * self.grid_ndim(geometry)
 
         first_load = jnp.arange(loads.shape[0]) == 0
+        extrapolate = self.grid_ndim(geometry) == 2  # it pays on 2D windows; in 1D it took more steps
 
         def one_speed(first_start, V):
             kernel = build(V)
@@ -353,7 +356,9 @@ class Full(_GridMethod):
                 s = self._solve(model, kernel, R, P, size, init=start)
                 first = jax.tree_util.tree_map(lambda a, b: jnp.where(is_first, a, b),
                                                _contact.WarmStart.of(s.contact), first)
-                return ((_contact.WarmStart.stretched(s.contact, s_next, r_next), first),
+                nxt = (_contact.WarmStart.extrapolated(start, s.contact, s_next, r_next, ~is_first) if extrapolate
+                       else _contact.WarmStart.stretched(s.contact, s_next, r_next))
+                return ((nxt, first),
                         self._result(model, s, layer, V, material))
 
             step = jax.checkpoint(step, prevent_cse=False, policy=_contact.SAVED_FOR_DERIVATIVES)

@@ -504,3 +504,42 @@ def test_warm_start_stretch_reproduces_hertz_at_the_new_load():
         ws = ct.WarmStart.stretched(sol40, s, r)
         assert not bool(ws.valid) and np.all(np.isfinite(np.asarray(ws.pressure))) and np.isfinite(float(ws.penetration))
     assert not bool(ct.WarmStart.of(bad).valid)
+
+
+def test_warm_start_extrapolated_adds_the_start_miss_once_more():
+    """WarmStart.extrapolated: with stretch 1 and load ratio 1 the start is exactly the linear
+    extrapolation 2 p1 - p0 (clipped at 0, the set where it is positive) and 2 d1 - d0; without a
+    usable previous start (use False) the solution itself. On Hertz solutions at 40, 60 and 80 N
+    (the 60 N start stretched from 40 N) the start for 80 N holds its load within 0.5 % (measured
+    -0.30 %; the plain stretch -0.78 %: the miss of the start at 60 N is the discretisation's,
+    extrapolated), the pressure within 0.5 % of the peak inside 0.8 a (measured 0.21 %), the sets
+    apart by less than half the boundary ring (measured 52 of 107 cells, the plain stretch 60),
+    the penetration a^2/R exactly (the start's miss in d is 0)."""
+    s40, a40, dx = _hertz_solution(40.0)
+    s60, a60, _ = _hertz_solution(60.0)
+    s80, a80, _ = _hertz_solution(80.0)
+    ws = ct.WarmStart.extrapolated(ct.WarmStart.stretched(s40, a60 / a40, 1.5), s60, a80 / a60, 80.0 / 60.0)
+    p, p80 = np.asarray(ws.pressure), np.asarray(s80.pressure)
+    peak = p80.max()
+    assert bool(ws.valid) and abs(p.sum() * dx * dx / 80.0 - 1) < 0.005
+    x = (np.arange(p.shape[0]) - (p.shape[0] - 1) / 2) * dx
+    inner = x[:, None] ** 2 + x[None, :] ** 2 < (0.8 * a80) ** 2
+    assert np.max(np.abs(p - p80)[inner]) < 0.005 * peak
+    assert np.sum(np.asarray(ws.contact) != np.asarray(s80.contact)) < 0.5 * 2 * np.pi * a80 / dx
+    np.testing.assert_allclose(float(ws.penetration), a80 * a80 / 0.02, rtol=1e-12)
+    # the extrapolation itself, on data that are not a contact solution (stretch 1: no interpolation)
+    rng = np.random.default_rng(1)
+    p0, p1 = rng.uniform(0.0, 1.0, (9, 9)), rng.uniform(0.0, 1.0, (9, 9))
+    z = jnp.zeros((9, 9))
+    one = ct.ContactSolution(pressure=jnp.asarray(p1), penetration=jnp.asarray(2.0), contact=jnp.asarray(p1 > 0.2),
+                             gap=z, displacement=z, iterations=jnp.asarray(0), residual=jnp.asarray(0.0),
+                             result=jnp.asarray(0))
+    start = ct.WarmStart(jnp.asarray(p0 > 0.1), jnp.asarray(p0), jnp.asarray(1.5), jnp.asarray(True))
+    ext = ct.WarmStart.extrapolated(start, one, 1.0, 1.0)
+    expected = 2 * p1 - p0
+    np.testing.assert_array_equal(np.asarray(ext.contact), expected > 0)
+    np.testing.assert_allclose(np.asarray(ext.pressure), np.maximum(expected, 0.0), rtol=1e-14, atol=1e-15)
+    assert float(ext.penetration) == pytest.approx(2.5, rel=1e-15)
+    own = ct.WarmStart.extrapolated(start, one, 1.0, 1.0, use=False)
+    np.testing.assert_allclose(np.asarray(own.pressure), p1, rtol=1e-14)
+    assert float(own.penetration) == 2.0 and bool(np.all(np.asarray(own.contact)))

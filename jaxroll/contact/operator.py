@@ -236,10 +236,14 @@ def circulant_window_apply(multiplier, p, embedding):
     way in or discarded on the way out: the first axes are transformed on the window's rows only
     after the last one, and inverted back onto the window before the last axis's inverse. This
     is the same result as the full ``rfftn``/``irfftn`` pair to rounding, ~25 % faster for the
-    paper's 55 x 55 window in a 112 x 112 embedding on CPU.
+    paper's 55 x 55 window in a 112 x 112 embedding on CPU. Where the window fills more than half
+    of every axis (a folded period, :func:`~jaxroll.contact.precondition.folded_size`) there is
+    little to prune and the full pair is used (55 x 55 in 56 x 56: 21.9 against 24.3 us).
     """
     shape = p.shape
     d = len(shape)
+    if all(2 * w > e for w, e in zip(shape, embedding)):
+        return jnp.fft.irfftn(multiplier * jnp.fft.rfftn(p, s=embedding), s=embedding)[tuple(slice(w) for w in shape)]
     ph = jnp.fft.rfft(p, n=embedding[-1], axis=-1)
     for k in range(d - 1):
         ph = jnp.fft.fft(ph, n=embedding[k], axis=k)

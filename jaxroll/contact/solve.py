@@ -17,7 +17,7 @@ repeats. Each step's linear system is solved by a :mod:`~jaxroll.contact.linear`
 :func:`~jaxroll.contact.active_set.find_contact_set`.
 
 Speed (``benchmarks/bench_sphere3d.py``, the paper's reference case of 345 solves): each solve
-takes ~4 active-set steps and ~33 operator applications; an operator application is one FFT
+takes ~3 active-set steps and ~25 operator applications; an operator application is one FFT
 pair pruned to the window (:func:`~jaxroll.contact.operator.circulant_window_apply`), a
 preconditioner application one FFT pair of the folded period (about a quarter of the points; of
 the same embedding where a solve stagnated, :mod:`~jaxroll.contact.precondition`), and the Krylov bookkeeping
@@ -140,29 +140,51 @@ class WarmStart(eqx.Module):
         Data only (``stop_gradient``): a start changes the iterations, never the solution."""
         return cls.of(solution).stretch(stretch, load_ratio)
 
-    def stretch(self, stretch, load_ratio) -> "WarmStart":
+    @classmethod
+    def extrapolated(cls, start: "WarmStart", solution: "ContactSolution", stretch, load_ratio,
+                     use=True) -> "WarmStart":
+        """The start for the next load of a sequence (as :meth:`stretched`) from ``solution`` and
+        the ``start`` it was solved from, that load's own start stretched from the load before
+        (``use``: whether it was; traced bool): the start's miss is added once more, i.e. the
+        pressure and penetration extrapolated linearly in the stretched coordinates,
+        ``2 p - p_start`` and ``2 d - d_start``, and stretched (:meth:`stretch`) with the set taken
+        from the stretched extrapolated pressure (where it is positive). Without a usable
+        ``start``, ``solution`` stretched with the set taken from its pressure.
+
+        Paper's reference case (345 warm-started solves): active-set steps per solve 3.82 -> 3.49,
+        operator applications 32.7 -> 30.1, against :meth:`stretched`. Data only
+        (``stop_gradient``): a start changes the iterations, never the solution."""
+        here, sg = cls.of(solution), jax.lax.stop_gradient
+        ok = here.valid & start.valid & jnp.asarray(use)
+        p = jnp.where(ok, 2.0 * here.pressure - sg(start.pressure), here.pressure)
+        d = jnp.where(ok, 2.0 * here.penetration - sg(start.penetration), here.penetration)
+        return cls(here.contact, p, d, here.valid, here.smoothed).stretch(stretch, load_ratio, set_from_pressure=True)
+
+    def stretch(self, stretch, load_ratio, set_from_pressure=False) -> "WarmStart":
         """This start for ``load_ratio`` times its load and a contact ``stretch`` times as large:
         the pressure and contact set stretched about the centre of pressure (bilinear and nearest
-        cell), the pressure scaled to the new load, the penetration by ``stretch^2`` (Hertz:
-        ``d ~ a^2/R``)."""
+        cell; ``set_from_pressure``: the set where the bilinearly stretched indicator of a
+        positive pressure exceeds 1/2), the pressure scaled to the new load, the penetration by
+        ``stretch^2`` (Hertz: ``d ~ a^2/R``)."""
         s, ratio = (jax.lax.stop_gradient(jnp.asarray(v, float)) for v in (stretch, load_ratio))
         ok = self.valid & (s > 0) & jnp.isfinite(s) & (ratio > 0) & jnp.isfinite(ratio)
         s, ratio = jnp.where(ok, s, 1.0), jnp.where(ok, ratio, 1.0)
-        p, mask = jnp.where(ok, self.pressure, 0.0), self.contact
-        total = jnp.where(ok, jnp.sum(p), 1.0)
-        new_p, new_mask = p, mask.astype(float)
+        p = jnp.where(ok, self.pressure, 0.0)
+        positive = jnp.maximum(p, 0.0)
+        total = jnp.where(ok, jnp.sum(positive), 1.0)
+        new_p, new_mask = p, (p > 0 if set_from_pressure else self.contact).astype(float)
         for axis, n in enumerate(p.shape):
             # target cell i takes the data at c + (i - c)/s (c: centre of pressure on this axis):
-            # interpolation matrices, linear for the pressure, nearest cell for the set
+            # interpolation matrices, linear for the pressure, nearest cell (or linear) for the set
             k = jnp.arange(n, dtype=float)
-            c = jnp.sum(jnp.moveaxis(p, axis, -1) * k) / total
+            c = jnp.sum(jnp.moveaxis(positive, axis, -1) * k) / total
             src = c + (k - c) / s
             linear = jnp.maximum(0.0, 1.0 - jnp.abs(src[:, None] - k[None, :]))
-            nearest = (jnp.round(src)[:, None] == k[None, :]).astype(float)
+            nearest = linear if set_from_pressure else (jnp.round(src)[:, None] == k[None, :]).astype(float)
             new_p = jnp.moveaxis(jnp.tensordot(linear, new_p, axes=(1, axis)), 0, axis)
             new_mask = jnp.moveaxis(jnp.tensordot(nearest, new_mask, axes=(1, axis)), 0, axis)
         new_mask = new_mask > 0.5
-        new_p = jnp.where(new_mask, new_p, 0.0) * ratio / s ** p.ndim
+        new_p = jnp.where(new_mask, jnp.maximum(new_p, 0.0), 0.0) * ratio / s ** p.ndim
         return WarmStart(new_mask & ok, new_p, jnp.where(ok, self.penetration * s * s, 0.0), ok, self.smoothed & ok)
 
 
@@ -309,12 +331,13 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         # a smoothed start (WarmStart.smoothed) begins the damped Newton iteration itself: no exact solve
         kinds = jax.eval_shape(exact, None)
 
-        def from_start(_):  # (set, x, iterations, converged, robust) as find_contact_set returns them
-            return jax.tree_util.tree_map(lambda k, v: jnp.asarray(v, k.dtype), kinds, (mask0, x_init, 0, True, False))
+        def from_start(_):  # (set, x, iterations, converged, robust, gap) as find_contact_set returns them
+            return jax.tree_util.tree_map(lambda k, v: jnp.broadcast_to(jnp.asarray(v, k.dtype), k.shape), kinds,
+                                          (mask0, x_init, 0, True, False, 0.0))
 
-        mask, x_exact, iters, done, robust = jax.lax.cond(warm.valid & warm.smoothed, from_start, exact, None)
+        mask, x_exact, iters, done, robust, gap = jax.lax.cond(warm.valid & warm.smoothed, from_start, exact, None)
     else:
-        mask, x_exact, iters, done, robust = exact(None)
+        mask, x_exact, iters, done, robust, gap = exact(None)
     mask, x_exact, iters, done, robust = checkpoint_name((mask, x_exact, iters, done, robust), SOLUTION_NAME)
     if smoothing is None:
         # x_exact already solves the system on the converged set to 1e-3 tol: it is returned as
@@ -332,7 +355,7 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
             )
 
         x = jax.lax.custom_root(lambda x: mv(x) - b, x_exact, lambda f, x0: x0, tangent_solve)
-        residual = None  # from the solution's displacement (_solution)
+        residual = _exact_residual(system, x, mask, gap)
     else:
         smooth = smoothed_solve if order is None else functools.partial(extrapolated_solve, order=order)
         x, mask, n_it, n_done, residual = smooth(system, x_exact, smoothing, solver, precond,
@@ -341,13 +364,14 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
     return _solution(system, x, mask, value, iters, done, residual, tol)
 
 
-def _exact_residual(system: ContactSystem, x, mask, u):
+def _exact_residual(system: ContactSystem, x, mask, gap):
     """Scaled residual ``max |min(p~, g~)|`` with the linear system's residual from the same
-    displacement ``u = C p`` [m]: ``g~`` on the set, ``p~`` off it, the load (or penetration) row
-    (the off-set ``p`` enters ``u`` only at the solve's own tolerance)."""
+    scaled gap ``g~`` (:func:`~jaxroll.contact.active_set.find_contact_set`'s, from the product
+    that checked the last solve: no application of ``C`` here): ``g~`` on the set, ``p~`` off
+    it, the load (or penetration) row (the off-set ``p`` enters ``g~`` only at the solve's own
+    tolerance)."""
     sg = jax.lax.stop_gradient
-    pt, dt = sg(x[:-1].reshape(system.shape)), sg(x[-1])
-    gs = sg((system.profile + u) / system.g_s - dt)
+    pt, dt, gs = sg(x[:-1].reshape(system.shape)), sg(x[-1]), sg(gap)
     comp = jnp.max(jnp.abs(jnp.minimum(pt, gs)))
     lin_res = jnp.maximum(jnp.max(jnp.abs(jnp.where(mask, gs, pt))),
                           jnp.abs(sg(system.last_row(jnp.where(mask, pt, 0.0), dt) - system.target)))
@@ -355,14 +379,12 @@ def _exact_residual(system: ContactSystem, x, mask, u):
 
 
 def _solution(system: ContactSystem, x, mask, value, iters, done, residual, tol) -> ContactSolution:
-    """The :class:`ContactSolution` of the scaled unknowns ``x``, with its result code
-    (``residual=None``: the exact problem's, :func:`_exact_residual`)."""
+    """The :class:`ContactSolution` of the scaled unknowns ``x``, with its result code from
+    ``residual`` (scaled)."""
     p, d = system.unscale(x)
     if system.penetration_mode:
         d = value  # the given d exactly (x[-1] g_s = d to tol)
-    u = system.compliance(p)
-    if residual is None:
-        residual = _exact_residual(system, x, mask, u)
+    u = system.compliance(p)  # (where no output needs it, the compiled program leaves it out)
     touches = jnp.any(mask & _edge_mask(system.shape))
     finite = jnp.all(jnp.isfinite(p)) & jnp.isfinite(d)
     result = first_failure((~finite, RESULTS.nonfinite), (touches, RESULTS.window_too_small),
