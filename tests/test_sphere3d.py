@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-from _cases import SPHERE_COARSE
+from _cases import SPHERE_COARSE, central_difference
 from jaxroll import reference as ref
 from jaxroll.engines import sphere3d as s3
 from jaxroll.engines.direct import direct_rolling_resistance
@@ -366,20 +366,17 @@ def test_table_gradient_vs_finite_differences():
     lay_H, loads, speeds = 0.03, jnp.asarray([6.0, 10.0]), jnp.asarray([3e-3, 3e-2])
     grid = _grid(A_H / CPR)
 
-    def total(theta):
-        G, H, tau = theta
-        out = jr.Full(grid=grid).evaluate_grid(jr.StandardLinearSolid(G, tau, F), jr.Layer(H), R, loads, speeds,
-                                               "sphere")
+    def total(p):
+        out = jr.Full(grid=grid).evaluate_grid(jr.StandardLinearSolid(p["G0"], p["tau"], F), jr.Layer(p["H"]), R,
+                                               loads, speeds, "sphere")
         return jnp.sum(out.value)
 
-    theta = jnp.asarray([G0, lay_H, TAU])
+    p = {"G0": jnp.asarray(G0), "H": jnp.asarray(lay_H), "tau": jnp.asarray(TAU)}
     f = jax.jit(total)
-    g = np.asarray(jax.jit(jax.grad(total))(theta))
-    for i in range(3):
-        e = np.zeros(3)
-        e[i] = 1e-5 * float(theta[i])
-        fd = (float(f(theta + e)) - float(f(theta - e))) / (2 * e[i])
-        assert g[i] == pytest.approx(fd, rel=1e-4), (i, g[i], fd)
+    g = jax.jit(jax.grad(total))(p)
+    for name in p:
+        fd = central_difference(f, p, name)
+        assert float(g[name]) == pytest.approx(fd, rel=1e-4), (name, float(g[name]), fd)
 
 
 def test_result_and_grid():
