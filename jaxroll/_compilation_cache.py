@@ -296,7 +296,8 @@ def compile_ahead(fn, *args) -> bool:
     time). A :func:`call` with that key waits for the thread. Returns whether a thread was started
     (not where the program is known already, or where :func:`call` would not compile a program of
     its own: no options, a trace under way). An error in the thread is dropped: the call then
-    compiles (and raises) as usual."""
+    compiles (and raises) as usual. The thread is not a daemon: an interpreter that ends while it
+    compiles waits for it (a daemon thread stopped inside XLA aborted the process)."""
     if compiler_options() is None or not _outside_traces():
         return False
     leaves, treedef = jax.tree_util.tree_flatten(args)
@@ -315,7 +316,7 @@ def compile_ahead(fn, *args) -> bool:
             pass
 
     _memo[memo_key] = entry
-    _ahead[memo_key] = thread = threading.Thread(target=work, name="jaxroll-compile-ahead", daemon=True)
+    _ahead[memo_key] = thread = threading.Thread(target=work, name="jaxroll-compile-ahead")
     thread.start()
     return True
 

@@ -614,12 +614,14 @@ def _carried_starts(finals, old, new):
     run on grid ``new`` of the same window (``None`` otherwise): the same cells at another cell
     size ``h``. :meth:`jaxroll.contact.WarmStart.stretch` maps a start in cells by the ratio of
     the counting sizes [m]; with the sizes multiplied by ``q = h_new/h_old`` it maps them by the
-    ratio in cells, and the pressure divided and the penetration multiplied by ``q^2`` keep the
-    load and the penetration of the stretched start physical."""
+    ratio in cells, and the pressure divided by ``q^d`` (``d`` the grid's dimension: the cell
+    area) and the penetration multiplied by ``q^2`` keep the load and the penetration of the
+    stretched start physical."""
     if finals is None or old is None or getattr(old, "window", None) != getattr(new, "window", None):
         return None
     (warm, sizes), q = finals, float(new.spacing) / float(old.spacing)
-    warm = eqx.tree_at(lambda w: (w.pressure, w.penetration), warm, (warm.pressure / q**2, warm.penetration * q**2))
+    d = warm.pressure.ndim - 1  # per point: (n, *window shape)
+    warm = eqx.tree_at(lambda w: (w.pressure, w.penetration), warm, (warm.pressure / q**d, warm.penetration * q**2))
     return warm, sizes * q
 
 
@@ -1219,17 +1221,17 @@ def fit_material(
         def ahead(u, r, J):
             if len(ahead_windows) >= COMPILE_AHEAD:
                 return
-            target = at(params, u - np.linalg.lstsq(J, r, rcond=None)[0], model)
-            try:  # a guess: a minimiser outside the rule's range compiles nothing
+            try:  # a guess and an optimisation only: a minimiser the model or the grid rule rejects
+                target = at(params, u - np.linalg.lstsq(J, r, rcond=None)[0], model)  # compiles nothing
                 guess = _resolve_for_fit(auto, *target[:2], radius, rolling, geometry, dense_lines)[0]
-            except (ValueError, FloatingPointError):
+                if guess.grid.window in ahead_windows | {method.grid.window}:
+                    return
+                ahead_windows.add(guess.grid.window)
+                g_params, g_problem, g_data = setup(guess, target)
+                _compilation_cache.compile_ahead(_residuals_and_jacobian_jit, jnp.asarray(g_params.logp0(target)),
+                                                 target, g_data, g_problem, _point_starts(g_problem, target, g_data))
+            except (ValueError, FloatingPointError, np.linalg.LinAlgError):
                 return
-            if guess.grid.window in ahead_windows | {method.grid.window}:
-                return
-            ahead_windows.add(guess.grid.window)
-            g_params, g_problem, g_data = setup(guess, target)
-            _compilation_cache.compile_ahead(_residuals_and_jacobian_jit, jnp.asarray(g_params.logp0(target)), target,
-                                             g_data, g_problem, _point_starts(g_problem, target, g_data))
 
         return None if auto is None or (os.cpu_count() or 1) < 2 else ahead
 
