@@ -168,6 +168,7 @@ class WarmStart(eqx.Module):
         ``stretch^2`` (Hertz: ``d ~ a^2/R``)."""
         s, ratio = (jax.lax.stop_gradient(jnp.asarray(v, float)) for v in (stretch, load_ratio))
         ok = self.valid & (s > 0) & jnp.isfinite(s) & (ratio > 0) & jnp.isfinite(ratio)
+        ok = ok & (jnp.sum(jnp.maximum(self.pressure, 0.0)) > 0)  # no positive pressure: no centre
         s, ratio = jnp.where(ok, s, 1.0), jnp.where(ok, ratio, 1.0)
         p = jnp.where(ok, self.pressure, 0.0)
         positive = jnp.maximum(p, 0.0)
