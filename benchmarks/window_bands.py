@@ -1,4 +1,4 @@
-"""The reference table's small loads on a smaller window: exactness and cost (the window bands of benchmarks/LOG.md, dropped).
+"""The reference table's small loads on a smaller window: exactness and cost (window bands: dropped, LOG.md).
 
 Run:  python benchmarks/window_bands.py [--split 80] [--repeat 5]
 
