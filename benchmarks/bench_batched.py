@@ -18,8 +18,11 @@ layer, cells 0.25 mm, window 55; ``--quick``: cells 0.5 mm, window 29):
   (``pyvisco_freq_user_raw.csv``: WLF, Prony fit) on a 10 mm layer, 10 N, R = 1 cm, 253..373 K x
   1e-3..10 m/s, values with dR/dT and dR/dH (automatic grid: each point on the grid the regime
   rule asks for, one warm-started scan per grid class), with its baseline: the tables of the
-  same reduced speeds ``V a_T`` (one load) on the same grids, without derivatives; ``--vmap-map``
-  adds the map's program before batching (``jax.vmap`` of ``value_and_grad`` of the front door);
+  same reduced speeds ``V a_T`` (one load) on the same grids, without derivatives, and the map's
+  points without derivatives (``jaxroll.buckets.evaluate_buckets``: the map's grid classes, each one
+  warm-started scan in the order of the reduced speed), which splits the map's cost into its values
+  and its derivatives; ``--vmap-map`` adds the map's program before batching (``jax.vmap`` of
+  ``value_and_grad`` of the front door);
 * ``jr.sweep H x20``: the front door over the same 20 thicknesses through ``jr.sweep``, chunks
   vectorised (default) and ``vectorize=False`` (points one after the other);
 * ``fit evaluation``: what ``jr.fit_material`` evaluates per least-squares step on the reference
@@ -207,6 +210,8 @@ def _fit_evaluation(grid, P, V, values):
 
 
 def map_rows(args, rows):
+    from jaxroll.buckets import evaluate_buckets
+
     sw = jr.read_dma_sweeps(jr.datasets.path("pyvisco_freq_user_raw.csv"))
     sh = jr.fit_shift_factors(sw, T_ref=298.15)
     wlf, pf = jr.fit_wlf(sh), jr.fit_prony(jr.master_curve(sw, sh))
@@ -246,9 +251,15 @@ def map_rows(args, rows):
         return [f(V) for f, V in tables]
 
     jax.block_until_ready(run_tables())
+
+    def run_values():  # the map's points without derivatives: each grid class one warm-started scan
+        return evaluate_buckets(jr.Full(), pf.material, layer, radius, load, reduced_all, "sphere",
+                                           buckets=buckets)
+
+    values = run_values()
     vmapped = (_vmapped_map(pf, wlf, layer, radius, load, Ts, Vs, jr.Full(grid=jr.grids.union([g for g, _ in buckets])))
                if args.vmap_map else None)
-    t_map, t_table, t_vmapped, c_map, c_table = [], [], [], [], []
+    t_map, t_table, t_vmapped, c_map, c_table, t_values, c_values = [], [], [], [], [], [], []
     for _ in range(args.repeat):
         t, c = time.perf_counter(), time.process_time()
         jax.block_until_ready(run_tables())
@@ -258,6 +269,10 @@ def map_rows(args, rows):
         run_map()
         t_map.append(time.perf_counter() - t)
         c_map.append(time.process_time() - c)
+        t, c = time.perf_counter(), time.process_time()
+        run_values()
+        t_values.append(time.perf_counter() - t)
+        c_values.append(time.process_time() - c)
         if vmapped is not None:
             t = time.perf_counter()
             out = jax.block_until_ready(vmapped[0]())
@@ -265,6 +280,8 @@ def map_rows(args, rows):
     n = k * k
     tm, tt = statistics.median(t_map), statistics.median(t_table)
     cm, ct = statistics.median(c_map), statistics.median(c_table)  # process CPU time: less load-dependent
+    tv, cv = statistics.median(t_values), statistics.median(c_values)
+    check = float(np.nanmax(np.abs(values[0].reshape(m.value.shape) / m.value - 1)))
     if vmapped is not None:
         tv = statistics.median(t_vmapped)
         diff = [float(np.nanmax(np.abs(a / np.asarray(b) - 1))) for a, b in
@@ -280,6 +297,9 @@ def map_rows(args, rows):
          f"measured Prony ({pf.n_terms} terms) + WLF: {tm:.2f} s per map (call, incl. grid sizing); "
          f"{m.valid.mean() * 100:.0f} % valid; process CPU {cm:.2f} s per map, {ct:.2f} s per set of tables "
          f"({cm / ct:.2f}x)"),
+        (f"map {k}x{k} values only (no derivatives)", tv / n, values[2], tv / tt,
+         f"jaxroll.buckets.evaluate_buckets at the map's reduced speeds (the map's grid classes and order): {tv:.2f} s; "
+         f"process CPU {cv:.2f} s ({cv / ct:.2f}x the tables'); max |rel diff| to the map's values {check:.1e}"),
     ]
 
 
