@@ -297,15 +297,19 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     assert "callback" not in _residuals_and_jacobian_jit.lower(lp, model1, arrays, p1, starts).as_text()
 
 
-def test_the_window_forecast_is_a_sphere_fits_and_never_raises():
+def test_the_window_forecast_is_a_sphere_fits_and_never_raises(monkeypatch):
     """Reduced copy of the slow test below (no program compiled): the forecast runs for a sphere's
-    fit on an automatic grid with a second processor, and an error in its thread is dropped."""
-    from jaxroll.identify.fit import _forecasts, _window_forecast
+    fit on an automatic grid with a free second processor, and an error in its thread is dropped."""
+    import jaxroll.identify.fit as jfit
 
     auto = default_method("sphere", fit=True)
-    assert _forecasts(auto, "sphere") == ((os.cpu_count() or 1) >= 2)
-    assert not _forecasts(auto, "cylinder") and not _forecasts(None, "sphere")
-    _window_forecast(lambda: 1 / 0).join()  # a failed forecast is dropped (the fit compiles as usual)
+    for free in (True, False):
+        monkeypatch.setattr(jfit, "_free_processor", lambda: free)
+        assert jfit._forecasts(auto, "sphere") == free
+        assert not jfit._forecasts(auto, "cylinder") and not jfit._forecasts(None, "sphere")
+    monkeypatch.setattr(os, "getloadavg", lambda: (99.0, 99.0, 99.0))
+    assert not jfit._free_processor()  # a busy machine: no forecast
+    jfit._window_forecast(lambda: 1 / 0).join()  # a failed forecast is dropped (the fit compiles as usual)
 
 
 @pytest.mark.slow  # 13 programs of the grid rule and the direct method: ~9 s of compilation

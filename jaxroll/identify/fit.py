@@ -730,12 +730,25 @@ SCREENING_RTOL = 1e-3
 
 def _forecasts(auto, geometry) -> bool:
     """Whether :func:`fit_material` forecasts its window (:data:`FORECAST_WINDOW`): a sphere (its
-    fit programs compile for 15-20 s each, a cylinder's for a few) on an automatic grid, with a
-    second processor for the compilation and :data:`COMPILE_AHEAD` on."""
+    fit programs compile for 15-20 s each, a cylinder's for a few) on an automatic grid, with
+    :data:`COMPILE_AHEAD` on and a processor free for the compilation (:func:`_free_processor`)."""
     from ..geometry import as_geometry
 
     return (FORECAST_WINDOW and COMPILE_AHEAD > 0 and auto is not None and as_geometry(geometry) == "sphere"
-            and (os.cpu_count() or 1) >= 2)
+            and _free_processor())
+
+
+def _free_processor() -> bool:
+    """Whether a second processor is free: at least two, and a load average (last minute) below
+    their number less one half (where ``os.getloadavg`` is missing: the count alone). The
+    forecast's screening fit and compilation pay only there: on 2 cores shared at load 4-5 the
+    60-point sphere fit took 5-6 s more CPU and wall time with them (benchmarks/LOG.md)."""
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        load = 0.0
+    return n >= 2 and load < n - 0.5
 
 
 def _window_forecast(work) -> threading.Thread:
