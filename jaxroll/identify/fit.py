@@ -712,7 +712,8 @@ REGRID_WITHIN = 0.5
 #: from the run's (each window is a program of its own; on a machine with one processor none): the
 #: compilation overlaps the run's remaining evaluations. On the 60-point sphere benchmark the
 #: first evaluation at the start (window 41) already points to the final window (65) (benchmarks/LOG.md,
-#: "The sphere fit's second program compiled ahead"). ``0``: off.
+#: "The sphere fit's second program compiled ahead"). The window forecast's program
+#: (:data:`FORECAST_WINDOW`) counts among them. ``0``: off (the forecast too).
 COMPILE_AHEAD = 2
 
 #: Whether a sphere's fit on an automatic grid forecasts, from its first moment, the window its
