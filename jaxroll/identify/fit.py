@@ -786,7 +786,7 @@ def _window_forecast(work) -> threading.Thread:
 def _screening_fit(params, model, rolling, radius, geometry):
     """The unconstrained coordinates ``u`` of a least-squares fit of ``rolling`` by the direct
     method with the contact size of the dynamic modulus (:class:`jaxroll.Direct`, ``modulus=
-    "dynamic"``: milliseconds per evaluation) from ``model``: a point whose data regime is the
+    "dynamic"``: tens of milliseconds per evaluation) from ``model``: a point whose data regime is the
     full model's (:func:`_window_forecast`), not an estimate of the parameters (the direct method's
     fit is biased along the G0-tau-f valley)."""
     from ..methods import Direct
