@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import threading
 import time
 import warnings
 
@@ -711,8 +712,89 @@ REGRID_WITHIN = 0.5
 #: from the run's (each window is a program of its own; on a machine with one processor none): the
 #: compilation overlaps the run's remaining evaluations. On the 60-point sphere benchmark the
 #: first evaluation at the start (window 41) already points to the final window (65) (benchmarks/LOG.md,
-#: "The sphere fit's second program compiled ahead"). ``0``: off.
+#: "The sphere fit's second program compiled ahead"). The window forecast's program
+#: (:data:`FORECAST_WINDOW`) counts among them. ``0``: off (the forecast too).
 COMPILE_AHEAD = 2
+
+#: Whether a sphere's fit on an automatic grid forecasts, from its first moment, the window its
+#: runs will need (:func:`_window_forecast`) and compiles that program ahead (counted in
+#: :data:`COMPILE_AHEAD`; off with it).
+FORECAST_WINDOW = True
+
+#: Evaluations at most, and the tolerance, of the screening fit behind the window forecast
+#: (:func:`_screening_fit`; tens of milliseconds each): the window needs the data's regime, not
+#: the screening model's optimum (on the 60-point sphere benchmark 8 evaluations at 1e-3 against
+#: 12 at 1e-6, the point within 1 %).
+SCREENING_EVALUATIONS = 100
+SCREENING_RTOL = 1e-3
+
+#: Central-difference step [log-parameter units] of the screening fit's Jacobian: its program
+#: compiles in less time than the forward-mode one (2.6 against 3.7 s of CPU for the 60-point
+#: sphere benchmark, on the forecast's critical path), to the same point within 1e-5.
+SCREENING_JAC_STEP = 1e-3
+
+
+def _forecasts(auto, geometry) -> bool:
+    """Whether :func:`fit_material` forecasts its window (:data:`FORECAST_WINDOW`): a sphere (its
+    fit programs compile for 15-20 s each, a cylinder's for a few) on an automatic grid, with
+    :data:`COMPILE_AHEAD` on and a processor free for the compilation (:func:`_free_processor`)."""
+    from ..geometry import as_geometry
+
+    return (FORECAST_WINDOW and COMPILE_AHEAD > 0 and auto is not None and as_geometry(geometry) == "sphere"
+            and _free_processor())
+
+
+def _free_processor() -> bool:
+    """Whether a second processor is free: at least two, and a load average (last minute) below
+    their number less one half (where ``os.getloadavg`` is missing: the count alone). The
+    forecast's screening fit and compilation pay only there: on 2 cores shared at load 4-5 the
+    60-point sphere fit took 5-6 s more CPU and wall time with them (benchmarks/LOG.md)."""
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        load = 0.0
+    return n >= 2 and load < n - 0.5
+
+
+def _window_forecast(work) -> threading.Thread:
+    """Run ``work`` (the screening fit and the compilation it points to) in a background thread,
+    beside the first run's own compilation; any error there is dropped (the forecast is an
+    optimisation only: the fit compiles what it needs as usual). Not a daemon: an interpreter that
+    ends while it compiles waits for it (a daemon thread stopped inside XLA aborts the process).
+
+    Why a forecast works: the window of the full model's automatic grid is set by the cells per
+    contact radius that the regime ``zeta = V tau / a`` of the slowest measured speeds asks for
+    (:func:`jaxroll.grids.sphere_cells_per_radius`: 12 at zeta >= 0.32, 20 at 0.1-0.32) times the
+    spread of contact sizes over the data, and any model that puts the rolling-resistance peak
+    at the measured speeds puts the data's ``zeta`` where the full model does. On the 60-point
+    sphere benchmark the start (2 MPa, 0.35 s, 0.7) has the smallest zeta 0.367 (a 41-cell
+    window), the truth 0.300 and the fit's end 0.304 (65 cells); the direct method's fit lands at
+    0.41 MPa, 0.49 s, 0.42, far along the G0-tau-f valley, at 0.305 (65 cells)
+    (benchmarks/LOG.md, "The sphere fit's window forecast")."""
+    def guarded():
+        try:
+            work()
+        except Exception:  # noqa: BLE001  (a guess only: the fit compiles what it needs itself)
+            pass
+
+    thread = threading.Thread(target=guarded, name="jaxroll-window-forecast")
+    thread.start()
+    return thread
+
+
+def _screening_fit(params, model, rolling, radius, geometry):
+    """The unconstrained coordinates ``u`` of a least-squares fit of ``rolling`` by the direct
+    method with the contact size of the dynamic modulus (:class:`jaxroll.Direct`, ``modulus=
+    "dynamic"``: tens of milliseconds per evaluation) from ``model``: a point whose data regime is the
+    full model's (:func:`_window_forecast`), not an estimate of the parameters (the direct method's
+    fit is biased along the G0-tau-f valley)."""
+    from ..methods import Direct
+
+    problem = _Problem.of(params, radius, geometry, Direct(modulus="dynamic"), SCREENING_JAC_STEP)
+    residuals, jacobian, _ = _host_functions(problem, model, _data_arrays(rolling, None, problem.method), False)
+    return least_squares(residuals, jacobian, params.u_from_logp(params.logp0(model)), rtol=SCREENING_RTOL,
+                         max_evaluations=SCREENING_EVALUATIONS).x
 
 
 #: Rungs of the fit's window ladder per octave: the window's half-width in cells is rounded up to
@@ -1212,28 +1294,35 @@ def fit_material(
         problem = _Problem.of(params, None if rolling is None else radius, geometry, method, jac_step)
         return params, problem, _data_arrays(rolling, dma, method)
 
-    ahead_windows = set()
+    ahead_windows, ahead_lock = set(), threading.Lock()
+
+    def compile_window_of(target, window):
+        """Where the grid resolved at the model ``target`` has a window other than ``window`` and
+        those compiled ahead (a program of its own), that program compiles in a background thread
+        (at most :data:`COMPILE_AHEAD` per fit)."""
+        guess = _resolve_for_fit(auto, *target[:2], radius, rolling, geometry, dense_lines)[0]
+        with ahead_lock:  # (the forecast's thread and the run's accepted points)
+            if len(ahead_windows) >= COMPILE_AHEAD or guess.grid.window in ahead_windows | {window}:
+                return
+            ahead_windows.add(guess.grid.window)
+        g_params, g_problem, g_data = setup(guess, target)
+        _compilation_cache.compile_ahead(_residuals_and_jacobian_jit, jnp.asarray(g_params.logp0(target)),
+                                         target, g_data, g_problem, _point_starts(g_problem, target, g_data))
 
     def compiling_ahead(params, model, method):
         """At an accepted point of a run on an automatic grid: where the grid resolved at the
-        Gauss-Newton minimiser has another window (a program of its own), that program compiles in
-        a background thread while the run goes on (:data:`COMPILE_AHEAD`)."""
+        Gauss-Newton minimiser has another window, its program compiles ahead while the run goes on."""
         def ahead(u, r, J):
-            if len(ahead_windows) >= COMPILE_AHEAD:
-                return
             try:  # a guess and an optimisation only: a minimiser the model or the grid rule rejects
-                target = at(params, u - np.linalg.lstsq(J, r, rcond=None)[0], model)  # compiles nothing
-                guess = _resolve_for_fit(auto, *target[:2], radius, rolling, geometry, dense_lines)[0]
-                if guess.grid.window in ahead_windows | {method.grid.window}:
-                    return
-                ahead_windows.add(guess.grid.window)
-                g_params, g_problem, g_data = setup(guess, target)
-                _compilation_cache.compile_ahead(_residuals_and_jacobian_jit, jnp.asarray(g_params.logp0(target)),
-                                                 target, g_data, g_problem, _point_starts(g_problem, target, g_data))
+                compile_window_of(at(params, u - np.linalg.lstsq(J, r, rcond=None)[0], model), method.grid.window)
             except (ValueError, FloatingPointError, np.linalg.LinAlgError):
                 return
 
         return None if auto is None or (os.cpu_count() or 1) < 2 else ahead
+
+    if _forecasts(auto, geometry):  # the window the fit will need, compiled from the start (_window_forecast)
+        _window_forecast(lambda: compile_window_of(
+            at(params, _screening_fit(params, model, rolling, radius, geometry), model), method.grid.window))
 
     carried = {}  # the per-point solutions at the last accepted point and the grid they are on
 
