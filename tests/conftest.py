@@ -15,15 +15,11 @@ inherit the environment:
   below stays on), as their first export costs more than a jit; tests/test_errors.py checks them.
 - One persistent compilation cache per test session (a temporary folder, removed at the end):
   a program compiled once is loaded, not recompiled, when another test module (after
-  ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)``, another pytest-xdist worker
-  (``-n``, on by default in pyproject.toml) or a subprocess lowers the same program again.
-  Programs with host callbacks (``jax.debug.callback``) are not stored. The controller creates
-  and removes the folder; the workers and the interpreters they start share it. Two rules make
-  that work: a program's cache key holds the folder's path (jax puts a GPU autotuning folder
-  inside it into the compile options it hashes), so processes find each other's programs only in
-  one folder, not in subfolders of it; and jax writes a cache file in place, so a size cap
-  (:data:`CACHE_CAP_BYTES`, far above what the suite writes) switches on jax's file lock, which
-  keeps a process from loading a program that another one is still writing.
+  ``jax.clear_caches`` below), a rebuilt ``jax.jit(lambda ...)`` or a subprocess lowers the same
+  program again. Programs with host callbacks (``jax.debug.callback``) are not stored. Under
+  pytest-xdist (``-n``, on by default in pyproject.toml) the controller creates and removes the
+  folder, and every worker, with the subprocesses it starts, keeps its own subfolder: jax writes
+  a cache file in place, and a process must not load a program that another is still writing.
 
 Set ``JAXROLL_TEST_CPU_LOG=PREFIX`` to write every test's CPU time (user + system, of the test
 process and of the subprocesses it waited for; the steady figure on a shared machine) and wall time
@@ -42,10 +38,6 @@ import time
 
 import _xla  # tests/_xla.py: no jax import
 
-#: Size cap of the session's compilation cache [bytes]: a cap switches on jax's file lock around
-#: every read and write of the folder (module docstring). The whole suite writes ~0.1 GB.
-CACHE_CAP_BYTES = 20 * 2**30
-
 if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
     os.environ["XLA_FLAGS"] = _xla.light_xla_flags(os.environ.get("XLA_FLAGS"))  # see the module docstring
     # XLA:CPU logs three lines per program it loads from a persistent cache on some x86 CPUs
@@ -57,12 +49,17 @@ if not os.environ.get("JAXROLL_TEST_PLAIN_XLA"):
     # cost more CPU than jit alone (benchmarks/LOG.md), and the tests' programs are rarely met
     # again in another process. tests/test_errors.py checks the stored programs themselves.
     os.environ.setdefault("JAXROLL_COMPILATION_CACHE", "0")
-    if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
-        # the controller's (or a single process's): pytest-xdist workers and every interpreter
-        # started by a test inherit the variables, and so share the folder (module docstring)
-        _CACHE_DIR = tempfile.mkdtemp(prefix="jaxroll-tests-xla-")  # removed at the end
-        os.environ["JAX_COMPILATION_CACHE_DIR"] = _CACHE_DIR
-        os.environ["JAX_COMPILATION_CACHE_MAX_SIZE"] = str(CACHE_CAP_BYTES)
+    if os.environ.get("PYTEST_XDIST_WORKER") and os.environ.get("JAXROLL_TEST_CACHE_ROOT"):
+        # a pytest-xdist worker: its own folder inside the controller's, so that no process reads
+        # a program that another one is still writing (jax writes cache files in place). One
+        # folder for all would share programs (a key holds the folder's path, so subfolders never
+        # do), but jax's lock for it comes with its size cap, whose check reads every entry's
+        # access-time file at every write: the suite took 10.7 instead of ~9 min (benchmarks/LOG.md)
+        os.environ["JAX_COMPILATION_CACHE_DIR"] = os.path.join(
+            os.environ["JAXROLL_TEST_CACHE_ROOT"], os.environ["PYTEST_XDIST_WORKER"])
+    elif "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+        _CACHE_DIR = tempfile.mkdtemp(prefix="jaxroll-tests-xla-")  # the controller's: removed at the end
+        os.environ["JAXROLL_TEST_CACHE_ROOT"] = os.environ["JAX_COMPILATION_CACHE_DIR"] = _CACHE_DIR
         os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
         os.environ["JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES"] = "-1"
 
