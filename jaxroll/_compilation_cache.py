@@ -141,6 +141,7 @@ PROGRAMS = "jaxroll-lowered"
 _FORMAT = 2  # of the stored files; part of every key
 _memo: dict = {}  # (function, input structure, static leaves, shapes, trace context) -> (run, output structure)
 _ahead: dict = {}  # memo key -> the thread compiling its program ahead (compile_ahead)
+_ahead_lock = threading.Lock()  # compile_ahead may run in a thread of its own (a fit's window forecast)
 _prefix: list = []  # the key's part common to every program of this process (computed once)
 
 
@@ -254,7 +255,8 @@ def call(fn, *args, store: bool = True):
     dynamic, memo_key = _memo_key(fn, leaves, treedef)
     if memo_key is None:  # an unhashable static value: fn's own jit would refuse it too
         return fn(*args)
-    ahead = _ahead.pop(memo_key, None)
+    with _ahead_lock:  # (compile_ahead enters a program in both dicts at once)
+        ahead = _ahead.pop(memo_key, None)
     if ahead is not None:  # compiled ahead (compile_ahead): wait for it instead of compiling it twice
         ahead.join()
     entry = _memo.get(memo_key)
@@ -304,7 +306,7 @@ def compile_ahead(fn, *args) -> bool:
     if any(isinstance(x, jax.core.Tracer) for x in leaves):
         return False
     dynamic, memo_key = _memo_key(fn, leaves, treedef)
-    if memo_key is None or memo_key in _memo or memo_key in _ahead:
+    if memo_key is None:
         return False
     entry = _in_process(fn, leaves, treedef, dynamic)
     values = [leaves[i] for i in dynamic]
@@ -315,9 +317,12 @@ def compile_ahead(fn, *args) -> bool:
         except Exception:  # noqa: BLE001  (the call compiles again and reports the error itself)
             pass
 
-    _memo[memo_key] = entry
-    _ahead[memo_key] = thread = threading.Thread(target=work, name="jaxroll-compile-ahead")
-    thread.start()
+    with _ahead_lock:  # both entries or neither, as call sees them
+        if memo_key in _memo or memo_key in _ahead:
+            return False
+        _memo[memo_key] = entry
+        _ahead[memo_key] = thread = threading.Thread(target=work, name="jaxroll-compile-ahead")
+        thread.start()
     return True
 
 

@@ -449,8 +449,10 @@ def test_per_point_reverse_jacobian_equals_forward_mode_and_yields_to_the_memory
     forward mode. Both are AD of the same residuals: the fits agree. Oracle for the data: the
     exact 2D half-space solution (jr.reference). The forward-mode fit starts at the reverse fit's
     result on the reverse fit's last grid (the same model: no grid to resolve, no regrid, a
-    program compiled once). Tolerance: both fits stop at the same optimum to the least-squares
-    tolerance, so values and Jacobians agree to ~1e-6, not to round-off."""
+    program compiled once), so the check that matters is the Jacobians' at the same point on the
+    same grid; the fitted values only confirm that the forward fit stays at that optimum.
+    Tolerance: the forward fit takes its own least-squares steps (tolerance 1e-5 in the cost)
+    before it stops, so values and Jacobians agree to ~1e-6, not to round-off."""
     from jaxroll.identify import fit as fit_module
 
     mat, R = jr.StandardLinearSolid(3e6, 0.25, 1.0), 0.02

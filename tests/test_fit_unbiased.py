@@ -298,17 +298,24 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
 
 
 def test_the_window_forecast_is_a_sphere_fits_and_never_raises(monkeypatch):
-    """Reduced copy of the slow test below (no program compiled): the forecast runs for a sphere's
-    fit on an automatic grid with a free second processor, and an error in its thread is dropped."""
+    """When the forecast runs (no program compiled; the slow test below checks what it predicts):
+    for a sphere's fit on an automatic grid with a free second processor (two processors: a load
+    average below 1.5, or none where the platform has no load average), and an error in its
+    thread is dropped (an exception escaping a thread would fail the test: warnings are errors)."""
     import jaxroll.identify.fit as jfit
 
     auto = default_method("sphere", fit=True)
     for free in (True, False):
-        monkeypatch.setattr(jfit, "_free_processor", lambda: free)
-        assert jfit._forecasts(auto, "sphere") == free
-        assert not jfit._forecasts(auto, "cylinder") and not jfit._forecasts(None, "sphere")
-    monkeypatch.setattr(os, "getloadavg", lambda: (99.0, 99.0, 99.0))
-    assert not jfit._free_processor()  # a busy machine: no forecast
+        with monkeypatch.context() as m:
+            m.setattr(jfit, "_free_processor", lambda: free)
+            assert jfit._forecasts(auto, "sphere") == free
+            assert not jfit._forecasts(auto, "cylinder") and not jfit._forecasts(None, "sphere")
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    for load, free in ((1.0, True), (1.6, False), (99.0, False)):
+        monkeypatch.setattr(os, "getloadavg", lambda load=load: (load, load, load), raising=False)
+        assert jfit._free_processor() == free, load
+    monkeypatch.delattr(os, "getloadavg", raising=False)
+    assert jfit._free_processor()  # no load average: the processor count alone
     jfit._window_forecast(lambda: 1 / 0).join()  # a failed forecast is dropped (the fit compiles as usual)
 
 

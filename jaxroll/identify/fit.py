@@ -748,7 +748,8 @@ def _free_processor() -> bool:
     """Whether a second processor is free: at least two, and a load average (last minute) below
     their number less one half (where ``os.getloadavg`` is missing: the count alone). The
     forecast's screening fit and compilation pay only there: on 2 cores shared at load 4-5 the
-    60-point sphere fit took 5-6 s more CPU and wall time with them (benchmarks/LOG.md)."""
+    60-point sphere fit took 5-9 s more CPU with them and no consistent wall time less
+    (benchmarks/LOG.md)."""
     n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     try:
         load = os.getloadavg()[0]
