@@ -744,13 +744,18 @@ def _forecasts(auto, geometry) -> bool:
             and _free_processor())
 
 
+def _processors() -> int:
+    """Processors this process may run on (its affinity where the platform has one)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
 def _free_processor() -> bool:
     """Whether a second processor is free: at least two, and a load average (last minute) below
     their number less one half (where ``os.getloadavg`` is missing: the count alone). The
     forecast's screening fit and compilation pay only there: on 2 cores shared at load 4-5 the
     60-point sphere fit took 5-9 s more CPU with them and no consistent wall time less
     (benchmarks/LOG.md)."""
-    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    n = _processors()
     try:
         load = os.getloadavg()[0]
     except (AttributeError, OSError):
@@ -1319,11 +1324,13 @@ def fit_material(
             except (ValueError, FloatingPointError, np.linalg.LinAlgError):
                 return
 
-        return None if auto is None or (os.cpu_count() or 1) < 2 else ahead
+        return None if auto is None or _processors() < 2 else ahead
 
     if _forecasts(auto, geometry):  # the window the fit will need, compiled from the start (_window_forecast)
-        _window_forecast(lambda: compile_window_of(
-            at(params, _screening_fit(params, model, rolling, radius, geometry), model), method.grid.window))
+        def forecast(params=params, model=model, window=method.grid.window):  # (this run's, bound now)
+            compile_window_of(at(params, _screening_fit(params, model, rolling, radius, geometry), model), window)
+
+        _window_forecast(forecast)
 
     carried = {}  # the per-point solutions at the last accepted point and the grid they are on
 
