@@ -245,7 +245,9 @@ class Full(_GridMethod):
         edge_extrapolation: with ``edge_smoothing``: Richardson extrapolation of the smoothed
             edge to ``kappa -> 0`` (solutions at ``kappa`` and ``2 kappa`` combined with the
             measured bias order :data:`EDGE_BIAS_ORDER`): still smooth, the bias mostly removed,
-            about twice the smoothing's cost.
+            about twice the smoothing's cost (the ``2 kappa`` solve converged to
+            :data:`jaxroll.contact.smoothing.PARTNER_TOL_FACTOR` times ``tol``, at most
+            :data:`jaxroll.contact.smoothing.PARTNER_TOL_MAX`).
         tol: contact solver tolerance on the scaled residual.
         max_steps: active-set (and smoothing Newton) iteration limit.
         linear_solver: the linear solver of the contact-set systems

@@ -368,33 +368,34 @@ def test_penetration_mode_1d_reproduces_load_mode_and_differentiates(smoothing):
         np.testing.assert_allclose(J[:, i], fd, rtol=1e-5)
 
 
-def test_extrapolated_edge_equals_its_two_smoothed_solves():
+@pytest.mark.parametrize("tol", [1e-10, 1e-6])
+def test_extrapolated_edge_equals_its_two_smoothed_solves(tol):
     """Richardson extrapolation of the smoothed edge (``smoothing_order``) against an independent
     construction from the public solver: the smoothed solutions at ``eps`` and ``2 eps``, each
-    solved alone to ``tol``, combined as ``x_eps + (x_eps - x_2eps)/(2^q - 1)``. Inside
-    ``solve_contact`` the ``2 eps`` partner stops at ``PARTNER_TOL_FACTOR`` times ``tol``
-    (1e-10 -> 1e-5 on the scaled residual); tolerance: that looser partner, whose error enters
-    the result times ``1/(2^q - 1)`` (measured here: 4.9e-7 of the peak pressure and 1.3e-8 of
-    the penetration, against 3.8e-12 and 6e-14 with the partner at ``tol``; the bias it corrects
-    is 4 % of the peak pressure), and the result code still says converged (its residual is
-    reported against the partner's own tolerance)."""
-    from jaxroll.contact.smoothing import PARTNER_TOL_FACTOR
-
-    assert PARTNER_TOL_FACTOR > 1.0  # the partner is looser than the solve it corrects
+    solved alone to 1e-10, combined as ``x_eps + (x_eps - x_2eps)/(2^q - 1)``. Inside
+    ``solve_contact`` the ``2 eps`` partner stops at ``PARTNER_TOL_FACTOR`` times ``tol``, at most
+    ``PARTNER_TOL_MAX`` (1e-5 on the scaled residual, for both tolerances here). Tolerance: a
+    partner anywhere up to that stop, whose error enters the result times ``1/(2^q - 1)``
+    (measured at tol 1e-10: 4.9e-7 of the peak pressure and 1.3e-8 of the penetration, up to
+    1.6e-6 and 4e-8 at other loads; 3.8e-12 with the partner at ``tol``); a partner stopped after
+    one Newton step (at tol 1e-6 without the cap) is off by 4.2e-4, a wrong weight by ~1e-2. The
+    bias it corrects is 4 % of the peak pressure. Not checked here: the ``eps`` solve's own
+    tolerance (a looser one stays inside this bound). The result code says converged (the
+    residual is each solve's over its own tolerance)."""
     op, x, h, dx, P = _problem(V=3e-2)
     eps, q = 2e-6, 2.0
     h = jnp.asarray(h)
     one, two = (ct.solve_contact(op, h, P, dx, smoothing=e) for e in (eps, 2.0 * eps))
-    combined = ct.solve_contact(op, h, P, dx, smoothing=eps, smoothing_order=q)
+    combined = ct.solve_contact(op, h, P, dx, smoothing=eps, smoothing_order=q, tol=tol)
     assert int(one.result) == int(two.result) == int(combined.result) == RESULTS.successful
     w = 1.0 / (2.0**q - 1.0)
     ref_p = one.pressure + w * (one.pressure - two.pressure)
     ref_d = float(one.penetration + w * (one.penetration - two.penetration))
     bias = float(jnp.max(jnp.abs(one.pressure - two.pressure)))
-    assert bias > 1e-3 * float(ref_p.max())  # the extrapolation corrects a real bias
+    assert bias > 1e-2 * float(ref_p.max())  # the extrapolation corrects a real bias
     np.testing.assert_allclose(np.asarray(combined.pressure), np.asarray(ref_p), rtol=0,
-                               atol=2e-6 * float(ref_p.max()))
-    assert float(combined.penetration) == pytest.approx(ref_d, rel=1e-7)
+                               atol=1e-5 * float(ref_p.max()))
+    assert float(combined.penetration) == pytest.approx(ref_d, rel=5e-7)
 
 
 def test_penetration_mode_reproduces_load_mode_2d():

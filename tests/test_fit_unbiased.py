@@ -67,7 +67,8 @@ def test_extrapolated_edge_matches_the_exact_contact_and_its_own_finite_differen
     ref = float(jr.reference.exact_cylinder_halfspace(jr.StandardLinearSolid(**TRUE), R, P_LINE, V).rolling_resistance)
     assert abs(fit - np.log(ref)) < 5e-3
     # d ln R / d ln G0 by forward mode (implicit function theorem through both smoothed solves)
-    # against central differences with step 1e-3: truncation ~1e-6, solver noise 1e-10/1e-3
+    # against central differences with step 1e-3: truncation ~1e-6; solver noise: the 2 kappa
+    # partner stops at 1e-5 (PARTNER_TOL_FACTOR), ~2e-8 in R_r, so up to ~2e-5 in the quotient
     slope = float(jax.jacfwd(_line)(lg, V, FIT_MODEL))
     fd = (float(_line(lg + 1e-3, V, FIT_MODEL)) - float(_line(lg - 1e-3, V, FIT_MODEL))) / 2e-3
     assert slope == pytest.approx(fd, abs=1e-4)
@@ -270,7 +271,8 @@ def test_a_re_resolved_fit_grid_reuses_the_compiled_fit(caplog):
     r1 = np.asarray(r1)
     # a later evaluation starts each point's smoothed-edge Newton iteration from its solution at
     # the previous one (no exact solve): the same residuals and Jacobian to the solver tolerances
-    # (contact tol 1e-10 on the scaled residual; derivative solves 1e-8, TANGENT_RTOL)
+    # (contact tol 1e-10 on the scaled residual, the 2 kappa partner 1e-5; derivative solves 1e-8,
+    # TANGENT_RTOL)
     assert np.all(np.asarray(finals[0].smoothed)) and not np.any(failed)
     near = _residuals_and_jacobian_jit(lp + 0.02, model1, arrays, p1, starts)[2]
     r_w, J_w, _, failed_w = _residuals_and_jacobian_jit(lp, model1, arrays, p1, near)

@@ -50,8 +50,14 @@ TANGENT_RTOL = 1e-8
 #: On the 60-point sphere fit benchmark (65-cell windows, ``tol`` 1e-10) the residuals moved by
 #: 1.1e-6 of a standard deviation (2e-8 of ``R_r``), chi^2 by 1e-6 and the Jacobian by 1e-7
 #: relative, and one warm-started evaluation took 0.81x the time (1e4: 0.88x, 4e-7 and 3e-8;
-#: benchmarks/LOG.md, "The partner solve of the extrapolated edge").
+#: benchmarks/LOG.md, "The partner solve of the extrapolated edge"). At most
+#: :data:`PARTNER_TOL_MAX`.
 PARTNER_TOL_FACTOR = 1e5
+
+#: Largest tolerance of that partner solve (the value at the default ``tol`` of 1e-10): with a
+#: loose ``tol`` (1e-6) the factor alone would stop the partner after one Newton step and leave
+#: 4e-4 of the peak pressure in the extrapolated solution (1 % of the bias it removes).
+PARTNER_TOL_MAX = 1e-5
 
 
 def _residual(system: ContactSystem, x, c0_ratio, eps):
@@ -169,7 +175,7 @@ def extrapolated_solve(system: ContactSystem, x_exact, eps, solver, precond, *, 
     at ``eps`` and ``2 eps`` combined as ``x_eps + (x_eps - x_2eps)/(2^order - 1)``, which cancels
     a bias ``~ c eps^order``. Each solution is C-infinity in the parameters, so the combination is
     too; the second solve starts from the first (a few Newton steps) and stops at
-    :data:`PARTNER_TOL_FACTOR` times ``tol``. Arguments and returns as :func:`smoothed_solve` (the
+    :data:`PARTNER_TOL_FACTOR` times ``tol`` (at most :data:`PARTNER_TOL_MAX`). Arguments and returns as :func:`smoothed_solve` (the
     contact set is the one at ``eps``; iterations add up; the residual is the larger of the two
     solves' residuals, each over its own tolerance, times ``tol``)."""
     def one(start, e_and_tol):  # one program for both solves (a scan of two steps): half the compilation
@@ -178,7 +184,7 @@ def extrapolated_solve(system: ContactSystem, x_exact, eps, solver, precond, *, 
                                               robust=robust)
         return jax.lax.stop_gradient(x), (x, contact, n, ok, r)
 
-    tols = np.asarray([1.0, PARTNER_TOL_FACTOR]) * tol  # the partner to its own tolerance
+    tols = np.asarray([tol, min(PARTNER_TOL_FACTOR * tol, PARTNER_TOL_MAX)])  # the partner to its own
     _, (x, contact, n, ok, r) = jax.lax.scan(one, x_exact, (jnp.stack([eps, 2.0 * eps]), jnp.asarray(tols)))
     w = 1.0 / (2.0 ** order - 1.0)
     # the residual in units of the first solve's tolerance (each solve against its own)

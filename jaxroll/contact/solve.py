@@ -86,7 +86,10 @@ class ContactSolution(eqx.Module):
         residual: final scaled residual, ``max |min(p/p_s, g/g_s)|`` with the load (or
             penetration) equation and the linear residual (scales: load mode, ``p_s`` = mean
             contact pressure of the initial set and ``g_s = c0 p_s``; penetration mode,
-            ``g_s = |d|`` and ``p_s = g_s/c0``; ``c0`` = self compliance).
+            ``g_s = |d|`` and ``p_s = g_s/c0``; ``c0`` = self compliance). With ``smoothing``, the
+            soft-min residual; with ``smoothing_order``, the larger of the two smoothed solves'
+            residuals, each over its own tolerance, times ``tol`` (the ``2 eps`` partner stops at
+            :data:`~jaxroll.contact.smoothing.PARTNER_TOL_FACTOR` times ``tol``).
         result: :data:`jaxroll.result.RESULTS` code (``successful``, ``max_steps_reached``,
             ``linear_solve_failed``, ``window_too_small``, ``nonfinite``).
     """
@@ -256,7 +259,9 @@ def solve_contact(
             (``~ eps^q``): the smoothed solutions at ``eps`` and ``2 eps`` are combined by
             Richardson extrapolation to ``eps -> 0``
             (:func:`~jaxroll.contact.smoothing.extrapolated_solve`), still C-infinity; needs
-            ``smoothing``.
+            ``smoothing``. The ``2 eps`` solve, which only estimates the bias, stops at
+            :data:`~jaxroll.contact.smoothing.PARTNER_TOL_FACTOR` times ``tol`` (at most
+            :data:`~jaxroll.contact.smoothing.PARTNER_TOL_MAX`; ``R_r`` moves by ~2e-8 relative).
     Never raises on a failed solve: the reason is in ``ContactSolution.result``.
 
     Returns:
