@@ -175,9 +175,10 @@ def extrapolated_solve(system: ContactSystem, x_exact, eps, solver, precond, *, 
     at ``eps`` and ``2 eps`` combined as ``x_eps + (x_eps - x_2eps)/(2^order - 1)``, which cancels
     a bias ``~ c eps^order``. Each solution is C-infinity in the parameters, so the combination is
     too; the second solve starts from the first (a few Newton steps) and stops at
-    :data:`PARTNER_TOL_FACTOR` times ``tol`` (at most :data:`PARTNER_TOL_MAX`). Arguments and returns as :func:`smoothed_solve` (the
-    contact set is the one at ``eps``; iterations add up; the residual is the larger of the two
-    solves' residuals, each over its own tolerance, times ``tol``)."""
+    :data:`PARTNER_TOL_FACTOR` times ``tol`` (at most :data:`PARTNER_TOL_MAX`). Arguments and
+    returns as :func:`smoothed_solve` (the contact set is the one at ``eps``; iterations add up;
+    the residual is the larger of the two solves' residuals, each over its own tolerance, times
+    ``tol``)."""
     def one(start, e_and_tol):  # one program for both solves (a scan of two steps): half the compilation
         e, t = e_and_tol
         x, contact, n, ok, r = smoothed_solve(system, start, e, solver, precond, tol=t, max_steps=max_steps,
