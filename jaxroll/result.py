@@ -272,11 +272,11 @@ def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipati
     keeps the first failure):
 
     * the value is finite (``nonfinite``);
-    * the method's own error estimate ``truncation`` is at most ``max_truncation``
-      (``truncation_too_large``);
     * the contact is small against the roller, ``contact_size <= MAX_CONTACT_RATIO R``
       (``contact_too_large``), with the stationary estimate of every method alike (relaxed
       modulus: the largest contact; the slices' eq.-2 radius is the geometric chord, not it);
+    * the method's own error estimate ``truncation`` is at most ``max_truncation``
+      (``truncation_too_large``);
     * the value is positive (``nonpositive``): a rolling roller on a dissipative material has
       ``R_r > 0``. At ``V = 0`` or on an elastic material the true ``R_r`` is 0 and the value
       (round-off of either sign) is not checked for sign or truncation;
@@ -295,8 +295,10 @@ def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipati
     nonpositive = rolling & (value <= 0)
     checks = first_failure(
         (~finite, RESULTS.nonfinite),
-        (rolling & ~(res.truncation <= max_truncation), RESULTS.truncation_too_large),
+        # (before the truncation: a contact far larger than the model allows, e.g. a modulus in
+        # MPa given as Pa, also defeats the grid, and its size is the reason to report)
         (contact_size > MAX_CONTACT_RATIO * jnp.asarray(radius), RESULTS.contact_too_large),
+        (rolling & ~(res.truncation <= max_truncation), RESULTS.truncation_too_large),
         (nonpositive, RESULTS.nonpositive),
         (rolling & ~(_approximation(res) <= max_approximation), RESULTS.approximation_error),
     )

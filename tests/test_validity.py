@@ -197,6 +197,17 @@ def test_contact_larger_than_0_3_R_is_flagged():
         jr.rolling_resistance(mat, layer, radius=R, load=P, speed=0.01, method="direct")
 
 
+def test_a_contact_far_too_large_is_reported_as_such_before_the_grid_error():
+    # a unit slip (G0 = 3 Pa for 3 MPa): the contact (0.24 m estimated, 12 R) defeats the default
+    # full model's grid too, which reported only "refine the method" (truncation_too_large); the
+    # contact's size is the reason a user can act on
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = jr.rolling_resistance(jr.StandardLinearSolid(3.0, 0.25, 1.0), jr.Layer(0.03), radius=0.02, load=100.0,
+                                    speed=0.01, geometry="cylinder", throw=False)
+    assert int(res.result) == jr.RESULTS.contact_too_large
+
+
 @pytest.mark.parametrize("kw,match", [(dict(G0="3e6"), "G0 must be a number"), (dict(tau=[0.1, [0.2]]), "tau must be"),
                                       (dict(f="one"), "f must be a number")])
 def test_constructors_reject_strings_and_ragged_lists(kw, match):
