@@ -4,6 +4,7 @@
     python benchmarks/approx_validity.py errors [--out rows.csv] [--quick]
     python benchmarks/approx_validity.py gradients
     python benchmarks/approx_validity.py differences
+    python benchmarks/approx_validity.py inertia [--out rows.csv] [--quick]
 
 ``errors``: tables ``speeds x loads`` of every approximate method (``jr.Direct`` with the
 relaxed (``"static"``), dynamic and glassy contact modulus; ``jr.Slices`` PD, PP, SP) and of the
@@ -33,6 +34,13 @@ approximate entry is marked ``ok`` (same sign, within 30 %), ``size`` (same sign
 ``differences``: the full model's (exact discrete contact) sensitivities of the same cases by
 central differences over +-10 % with the automatic grid re-resolved at each point (the grid
 scales with the contact): the check that the smoothed model's gradient is the physical one.
+
+``inertia``: the same comparison on layers with inertia (``rho = 1000 kg/m^3``), at speeds that
+are fractions 0.05..0.8 of the shear-wave speed ``c_s = sqrt(G0/rho)`` (SLS G0 = 3 MPa, f = 0.1,
+1, 3, tau = 1e-6 s (relaxed regime), 1e-4 s (the loss peak), 0.25 s (glassy); half-space and
+H = 30 mm; sphere R = 2 cm, 100 N, and cylinder R = 2 cm, 5000 N/m): the data of the inertia term
+of the direct method's estimate (``jaxroll.engines.direct.inertia_error``). Prints per method
+and ``V/c_s`` the worst real error and the worst real error over the estimate.
 """
 
 from __future__ import annotations
@@ -157,7 +165,7 @@ def report(rows):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["errors", "gradients", "differences"])
+    ap.add_argument("what", choices=["errors", "gradients", "differences", "inertia"])
     ap.add_argument("--out", default="approx_validity.csv")
     ap.add_argument("--quick", action="store_true")
     args = ap.parse_args()
@@ -166,8 +174,76 @@ def main():
         errors(args)
     elif args.what == "gradients":
         gradients(args)
+    elif args.what == "inertia":
+        inertia(args)
     else:
         differences(args)
+
+
+RHO = 1000.0
+INERTIA_FRACTIONS = (0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
+
+
+def inertia_cases(quick):
+    G0 = 3e6
+    c_s = math.sqrt(G0 / RHO)
+    speeds = c_s * np.asarray(INERTIA_FRACTIONS)
+    for tau in ((1e-6, 1e-4) if quick else (1e-6, 1e-4, 0.25)):
+        for f in ((1.0,) if quick else (0.1, 1.0, 3.0)):
+            for H in (math.inf, 0.03):
+                for geometry, P in (("sphere", 100.0), ("cylinder", 5000.0)):
+                    yield dict(material=f"SLS f={f:g} tau={tau:g}", T=math.nan, G0=G0, tau=tau, f=f, H=H, R=0.02,
+                               loads=np.array([P]), speeds=speeds, geometry=geometry)
+
+
+def inertia(args):
+    """The approximate methods against the full model on layers with inertia (module docstring)."""
+    rows = []
+    fields = FIELDS + ["geometry", "V_over_cs"]
+    with open(args.out, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fields)
+        w.writeheader()
+        for k, case in enumerate(inertia_cases(args.quick)):
+            t0 = time.perf_counter()
+            mat = jr.StandardLinearSolid(case["G0"], case["tau"], case["f"])
+            layer = jr.Layer(case["H"], rho=RHO)
+            methods = {n: m for n, m in APPROX.items() if case["geometry"] == "sphere" or n.startswith("direct")}
+
+            def run(method):
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    return jr.rolling_resistance_grid(mat, layer, radius=case["R"], loads=case["loads"],
+                                                      speeds=case["speeds"], method=method,
+                                                      geometry=case["geometry"])
+            full = run(jr.Full())
+            for name, method in methods.items():
+                res = run(method)
+                for i, V in enumerate(case["speeds"]):
+                    row = {key: case[key] for key in ("material", "T", "G0", "tau", "f", "H", "R", "geometry")}
+                    row.update(case=k, P=case["loads"][0], V=V, V_over_cs=V / math.sqrt(case["G0"] / RHO),
+                               method=name, value=float(res.value[i, 0]), result=int(res.result[i, 0]),
+                               estimate=float(estimate_of(res)[i, 0]), contact_radius=float(res.contact_radius[i, 0]),
+                               full=float(full.value[i, 0]), full_result=int(full.result[i, 0]),
+                               full_contact_radius=float(full.contact_radius[i, 0]),
+                               full_truncation=float(full.truncation[i, 0]))
+                    w.writerow(row)
+                    rows.append(row)
+            fh.flush()
+            print(f"case {k} ({case['material']} H={case['H']:g} {case['geometry']}): "
+                  f"{time.perf_counter() - t0:.1f} s", flush=True)
+    report(rows)
+    print("\nper method and V/c_s: worst |error| where both are successful, and worst |error|/estimate")
+    for name in APPROX:
+        line = []
+        for frac in INERTIA_FRACTIONS:
+            sel = [r for r in rows if r["method"] == name and abs(r["V_over_cs"] - frac) < 1e-9
+                   and r["full_result"] == 0 and r["full"] > 0]
+            if not sel:
+                continue
+            err = [abs(r["value"] / r["full"] - 1) for r in sel]
+            over = [e / r["estimate"] for e, r in zip(err, sel)]
+            line.append(f"{frac:g}: {max(err):.3f} ({max(over):.2f}x)")
+        print(f"{name:16s} " + "  ".join(line))
 
 
 GRAD_CASES = [  # geometry, H [m], load, radius

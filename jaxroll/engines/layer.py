@@ -51,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._numerics import as_float, check_input, check_x64, to_complex as _c, where_safe
-from ..materials.material import _leaf, _require, complex_modulus, relaxed_modulus
+from ..materials.material import _leaf, _require, complex_modulus, relaxed_modulus, storage_modulus
 
 __all__ = [
     "Layer",
@@ -60,6 +60,7 @@ __all__ = [
     "halfspace_asymptote",
     "is_quasistatic",
     "single_layer",
+    "inertia_ratio",
     "shear_wave_speed",
     "check_subsonic",
     "transfer_incompressible",
@@ -380,6 +381,22 @@ def check_subsonic(material, layer, speed) -> None:
         c_s = math.sqrt(float(np.asarray(relaxed_modulus(mat))) / rho) if rho > 0 else math.inf
         if V >= c_s:
             raise ValueError(f"{SUPERSONIC.format(where=where)}; got V = {V:g} m/s against {c_s:.4g} m/s")
+
+
+def inertia_ratio(material, layer, V, omega) -> jax.Array:
+    """``rho V^2 / G'(omega)`` [-]: the squared ratio of the rolling speed ``V`` [m/s] to the
+    shear-wave speed at the storage modulus of the angular frequency ``omega`` [rad/s], the
+    largest over the media of ``layer`` (a :class:`Layer`: itself, with ``material``; a
+    :class:`~jaxroll.engines.stack.Stack`: every ply and a half-space base, each with its own
+    material). Zero without inertia; below 1 wherever the front doors' supersonic rule holds
+    (``G'(omega) >= G0``). Jittable."""
+    if isinstance(layer, Layer):
+        media = [(material, layer.rho)]
+    else:
+        media = [(p.material, p.rho) for p in layer.plies]
+        media += [(layer.base.material, layer.base.rho)] if layer.base is not None else []
+    V2 = as_float(V) ** 2
+    return functools.reduce(jnp.maximum, [as_float(rho) * V2 / storage_modulus(mat, omega) for mat, rho in media])
 
 
 def shear_wave_speed(layer: Layer, material) -> jax.Array:
