@@ -147,8 +147,8 @@ class Direct(AbstractMethod):
     stationary-pressure assumption is low by ~20 % near and above the R_r peak (see the
     accuracy table of docs/methods.md sec. 3): for screening. Each result carries
     ``approximation``, the estimated error against the full model
-    (:func:`jaxroll.engines.direct.approximation_error`: contact size and stationary pressure);
-    above :attr:`max_approximation` (10 %) it is flagged ``RESULTS.approximation_error``.
+    (:func:`jaxroll.engines.direct.approximation_error`: contact size, stationary pressure,
+    inertia); above :attr:`max_approximation` (10 %) it is flagged ``RESULTS.approximation_error``.
 
     Args:
         pressure: ``"auto"`` (thick model where Jaffar's law has a solution, else thin),

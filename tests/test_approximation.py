@@ -139,8 +139,8 @@ def test_direct_on_a_layer_with_inertia_against_the_full_model(tau, H):
         # the estimate bounds the real error (up to the reference's own), so valid means within 10 %
         assert np.all(np.asarray(res.approximation)[:, 0] + trunc >= err), (modulus, err, res.approximation)
         assert np.all(err[ok] <= 0.10 + trunc[ok]), (modulus, err, res.approximation)
-    if tau < 1e-3:  # the relaxed contact at 0.6 c_s: 36-40 % off, flagged
-        assert not ok[-1] and err[-1] > 0.3
+        if tau < 1e-3:  # the relaxed contact at 0.6 c_s (both moduli: G' ~ G0): 36-40 % off, flagged
+            assert not ok[-1] and err[-1] > 0.3
 
 
 @pytest.mark.slow  # (a full 3D table with inertia; the cylinder version above always runs)
@@ -169,11 +169,11 @@ def test_inertia_error_vanishes_without_inertia_and_grows_toward_the_wave_speed(
     c_s = np.sqrt(3e6 / RHO)
     est = [float(inertia_error(PAPER, jr.Layer(0.03, rho=RHO), x * c_s, r)) for x in (0.1, 0.5, 0.9)]
     assert 0 < est[0] < est[1] < est[2] < np.inf
-    # at the contact's frequency V/r = 5.5e4..5e5 rad/s the SLS (tau = 0.25 s) is glassy,
+    # at the contact's frequency V/r = 5.5e3..4.9e4 rad/s the SLS (tau = 0.25 s) is glassy,
     # G' -> 2 G0: m = x^2/2, the estimate m/(1 - m)
     np.testing.assert_allclose(est, [m / (1 - m) for m in (0.005, 0.125, 0.405)], rtol=1e-4)
-    # in the front door under jit(vmap), as eager (the estimate is stop_gradient: the value's
-    # gradient stays the method's own, checked in test_the_estimate_under_jit_vmap_and_grad)
+    # in the front door under jit(vmap), as eager; the estimate is stop_gradient, so the value's
+    # gradient is the method's own (central differences below, step 1e-5 relative: error ~1e-9)
     mat, layer = jr.StandardLinearSolid(3e6, 1e-6, 0.1), jr.Layer(0.03, rho=RHO)
 
     def point(V):
@@ -187,6 +187,14 @@ def test_inertia_error_vanishes_without_inertia_and_grows_toward_the_wave_speed(
         eager = [point(float(V)) for V in speeds]
     np.testing.assert_allclose(batched.approximation, [float(r.approximation) for r in eager], rtol=1e-12)
     np.testing.assert_array_equal(batched.result, [int(r.result) for r in eager])
+    V = float(speeds[0])  # (valid there: no warning)
+    g = jax.grad(lambda G0: jr.rolling_resistance(jr.StandardLinearSolid(G0, 1e-6, 0.1), layer, radius=RADIUS,
+                                                  load=5000.0, speed=V, geometry="cylinder", method="direct",
+                                                  throw=False).value)(3e6)
+    fd = central_difference(lambda p: jr.rolling_resistance(jr.StandardLinearSolid(p["G0"], 1e-6, 0.1), layer,
+                                                            radius=RADIUS, load=5000.0, speed=V, geometry="cylinder",
+                                                            method="direct", throw=False).value, {"G0": 3e6}, "G0")
+    np.testing.assert_allclose(g, fd, rtol=1e-5)
 
 
 # --------------------------------------------------------------------- valid means close to full

@@ -198,9 +198,10 @@ def test_contact_larger_than_0_3_R_is_flagged():
 
 
 def test_a_contact_far_too_large_is_reported_as_such_before_the_grid_error():
-    # a unit slip (G0 = 3 Pa for 3 MPa): the contact (0.24 m estimated, 12 R) defeats the default
-    # full model's grid too, which reported only "refine the method" (truncation_too_large); the
-    # contact's size is the reason a user can act on
+    # a unit slip (G0 = 3 Pa for 3 MPa): the cylinder's contact (0.17 m estimated, 8 R) defeats the
+    # default full model's grid too, which reported only "refine the method" (truncation_too_large);
+    # the contact's size is the reason a user can act on. (A method's own failure code still comes
+    # first: the direct method reports outside_pressure_model here.)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = jr.rolling_resistance(jr.StandardLinearSolid(3.0, 0.25, 1.0), jr.Layer(0.03), radius=0.02, load=100.0,

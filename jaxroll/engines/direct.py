@@ -652,15 +652,17 @@ def inertia_error(material, layer, V, r):
     the shear-wave speed at the contact's frequency).
 
     Physics: inertia softens the layer at the contact's wavelengths (the compliance of a moving
-    load grows like ``1/(1 - m)`` toward the shear-wave speed), so the rolling contact grows and
-    its loss with it, while the direct method keeps the contact of the layer without inertia (its
-    compliance integrals do include it). Measured against the full model
+    load grows with ``m``, singular at the Rayleigh speed, ``m`` ~ 0.91 on the relaxed
+    incompressible half-space), so the rolling contact grows and its loss with it, while the
+    direct method keeps the contact of the layer without inertia (its compliance integrals do
+    include it); ``m/(1 - m)`` fits the measured error up to 0.8 ``c_s``. Measured against the full model
     (``benchmarks/approx_validity.py inertia``, SLS G0 = 3 MPa, ``rho`` = 1000 kg/m^3, ``V`` =
     0.05..0.8 of ``sqrt(G0/rho)``): where the contact is relaxed (tau = 1 us) the direct method
     is high by 0.70-0.80 ``m/(1 - m)`` on the cylinder and ~0.55 on the sphere (+40 % and +29 %
-    at 0.6 ``c_s``); where it is glassy (tau = 0.25 s) by at most a fifth of that, so the weight 1
-    is conservative there. Zero without inertia. Not differentiated. The slices' estimate has
-    no such term: its plane-strain part grows with inertia and covered the measured errors."""
+    at 0.6 ``c_s``); where it is glassy (tau = 0.25 s) by at most a fifth of ``m/(1 - m)`` at the
+    glassy modulus, so the weight 1 is conservative there. Zero without inertia. Not
+    differentiated. The slices' estimate has no such term: its plane-strain part grows with
+    inertia and covered the measured errors."""
     V, r = jax.lax.stop_gradient((V, r))
     material, layer = jax.lax.stop_gradient((material, layer))
     moving = (V > 0) & (r > 0)

@@ -364,19 +364,24 @@ SUPERSONIC = ("rolling speed at or above the shear-wave speed sqrt(G0/rho) of {w
               "defined (supersonic rolling)")
 
 
+def _media(material, layer) -> list:
+    """``(where, material, rho)`` of each medium a wave crosses: a :class:`Layer` with
+    ``material``; a :class:`~jaxroll.engines.stack.Stack`'s plies and half-space base, each with
+    its own material and density."""
+    if isinstance(layer, Layer):
+        return [("the layer", material, layer.rho)]
+    media = [(f"ply {k + 1}", p.material, p.rho) for k, p in enumerate(layer.plies)]
+    return media + ([("the base", layer.base.material, layer.base.rho)] if layer.base is not None else [])
+
+
 def check_subsonic(material, layer, speed) -> None:
     """``ValueError`` if a concrete rolling speed ``|V|`` [m/s] reaches the shear-wave speed
     ``sqrt(G0/rho)`` of the layer, or of any ply or half-space base of a
     :class:`jaxroll.engines.stack.Stack`. The front doors check this on the host, so that their
     programs hold no host callback (:func:`jaxroll._numerics.check_input`); the layer models
     check traced speeds inside the program."""
-    if isinstance(layer, Layer):
-        media = [("the layer", material, layer.rho)]
-    else:  # a Stack: each ply's material and density, and the half-space base's
-        media = [(f"ply {k + 1}", p.material, p.rho) for k, p in enumerate(layer.plies)]
-        media += [("the base", layer.base.material, layer.base.rho)] if layer.base is not None else []
     V = float(np.max(np.abs(np.asarray(speed, dtype=float))))
-    for where, mat, rho in media:
+    for where, mat, rho in _media(material, layer):
         rho = float(np.asarray(rho))
         c_s = math.sqrt(float(np.asarray(relaxed_modulus(mat))) / rho) if rho > 0 else math.inf
         if V >= c_s:
@@ -390,13 +395,9 @@ def inertia_ratio(material, layer, V, omega) -> jax.Array:
     :class:`~jaxroll.engines.stack.Stack`: every ply and a half-space base, each with its own
     material). Zero without inertia; below 1 wherever the front doors' supersonic rule holds
     (``G'(omega) >= G0``). Jittable."""
-    if isinstance(layer, Layer):
-        media = [(material, layer.rho)]
-    else:
-        media = [(p.material, p.rho) for p in layer.plies]
-        media += [(layer.base.material, layer.base.rho)] if layer.base is not None else []
     V2 = as_float(V) ** 2
-    return functools.reduce(jnp.maximum, [as_float(rho) * V2 / storage_modulus(mat, omega) for mat, rho in media])
+    return functools.reduce(jnp.maximum, [as_float(rho) * V2 / storage_modulus(mat, omega)
+                                          for _, mat, rho in _media(material, layer)])
 
 
 def shear_wave_speed(layer: Layer, material) -> jax.Array:
