@@ -655,8 +655,8 @@ def inertia_error(material, layer, V, r):
     load grows with ``m``, singular at the Rayleigh speed, ``m`` ~ 0.91 on the relaxed
     incompressible half-space), so the rolling contact grows and its loss with it, while the
     direct method keeps the contact of the layer without inertia (its compliance integrals do
-    include it); ``m/(1 - m)`` fits the measured error up to 0.8 ``c_s``. Measured against the full model
-    (``benchmarks/approx_validity.py inertia``, SLS G0 = 3 MPa, ``rho`` = 1000 kg/m^3, ``V`` =
+    include it); ``m/(1 - m)`` fits the measured error up to 0.8 ``c_s``. Measured against the
+    full model (``benchmarks/approx_validity.py inertia``, SLS G0 = 3 MPa, ``rho`` = 1000 kg/m^3, ``V`` =
     0.05..0.8 of ``sqrt(G0/rho)``): where the contact is relaxed (tau = 1 us) the direct method
     is high by 0.70-0.80 ``m/(1 - m)`` on the cylinder and ~0.55 on the sphere (+40 % and +29 %
     at 0.6 ``c_s``); where it is glassy (tau = 0.25 s) by at most a fifth of ``m/(1 - m)`` at the
@@ -666,9 +666,10 @@ def inertia_error(material, layer, V, r):
     V, r = jax.lax.stop_gradient((V, r))
     material, layer = jax.lax.stop_gradient((material, layer))
     moving = (V > 0) & (r > 0)
-    m = inertia_ratio(material, layer, V, jnp.where(moving, V, 1.0) / jnp.where(moving, r, 1.0))
-    m = jnp.where(moving, m, 0.0)
-    return jnp.where(m < 1.0, INERTIA_WEIGHT * m / jnp.where(m < 1.0, 1.0 - m, 1.0), jnp.inf)
+    m = jnp.where(moving, inertia_ratio(material, layer, V, where_safe(moving, V, 1.0) / where_safe(moving, r, 1.0)),
+                  0.0)
+    below = m < 1.0
+    return jnp.where(below, INERTIA_WEIGHT * m / where_safe(below, 1.0 - m, 1.0), jnp.inf)
 
 
 def approximation_error(material, layer, V, value, r_c, gamma, run, modulus):
