@@ -297,6 +297,26 @@ def default_grid_accuracy(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def thin_layer_accuracy(numbers: dict) -> str:
+    """The default grid on layers thinner than the half-space calibration, by thickness band:
+    points, valid ones, the worst error of the valid ones, and how many errors the truncation
+    bounds."""
+    sec = numbers["thin_layer_error"]
+    lines = [f"Written from `{sec['command']}` ({_machine(sec['measured'])}): the default grid's cells per "
+             "counting contact size at each point of the study (rows in brackets: the validation set), how many "
+             "points are valid (solved, `truncation` <= 5 %), the largest |error| [%] of a valid point against the "
+             "value extrapolated to zero cell size, and at how many points the `truncation` bounds the error.",
+             "", "| geometry | a/H | default cells | points | valid | worst valid error [%] | bounded |",
+             "|---|---|---|---|---|---|---|"]
+    for r in sec["summary"]:
+        lo, hi = r["ratios"]
+        band = f"{lo:g}-{hi:g}" if hi < 100 else f">= {lo:g}"
+        band = f"[{band}]" if r["validation"] else band
+        lines.append(f"| {r['geometry']} | {band} | {r['cells'][0]}-{r['cells'][1]} | {r['points']} | {r['valid']} | "
+                     f"{r['worst_valid_error']:.2f} | {r['bounded']} of {r['points']} |")
+    return "\n".join(lines)
+
+
 def _summary(path: Path) -> str:
     """The first sentence of a script's docstring, on one line."""
     import ast
@@ -547,6 +567,7 @@ BLOCKS = {
     "compile-options": compile_options_table,
     "forms-convergence": forms_convergence,
     "default-grid-accuracy": default_grid_accuracy,
+    "thin-layer-accuracy": thin_layer_accuracy,
     "edge-smoothing": edge_smoothing,
     "scripts": scripts,
     "fit-examples": fit_examples_table,

@@ -33,13 +33,20 @@ GRID = jr.Full(grid=jr.FixedGrid(A0 / 30, 192))
 COVER = jr.Layer(H, nu=NU)
 
 
-def full(speeds, loads, *, f=F, tau=TAU, G=G0, T=293.15, layer=COVER):
-    """F_ir' [N/m] of the full 2D model on the shared program (2 speeds x 2 loads)."""
+def full(speeds, loads, *, f=F, tau=TAU, G=G0, T=293.15, layer=COVER, result=False):
+    """F_ir' [N/m] of the full 2D model on the shared program (2 speeds x 2 loads) (``result``:
+    the table). Every solve converges; the grid (30 cells per half-width, fixed) is coarser than
+    the default's here, and its error estimate, calibrated on incompressible layers (at a/H = 15
+    near the peak 1-6 % at 25-30 cells), may flag a point that this compressible cover resolves
+    well: the checks below compare values with their oracles instead."""
     mat = jr.at_temperature(jr.StandardLinearSolid(G, tau, f), WLF, T)
-    res = jr.rolling_resistance_grid(mat, layer, radius=R, loads=loads, speeds=speeds, geometry="cylinder",
-                                     method=GRID, throw=False)
-    assert bool(np.all(res.valid)), res.reasons()
-    return np.asarray(res.value)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", jr.ValidityWarning)
+        res = jr.rolling_resistance_grid(mat, layer, radius=R, loads=loads, speeds=speeds, geometry="cylinder",
+                                         method=GRID, throw=False)
+    codes = np.asarray(res.result)
+    assert np.all((codes == jr.RESULTS.successful) | (codes == jr.RESULTS.truncation_too_large)), res.reasons()
+    return res if result else np.asarray(res.value)
 
 
 # ------------------------------------------------------------------ (i) bookkeeping
@@ -108,14 +115,19 @@ def test_thin_compressible_cover_is_the_viscoelastic_winkler_foundation():
     Winkler-SLS closed form, across the resistance peak (V tau / a = 0.2 .. 2.3).
     Error sources: the Winkler bed neglects the shear coupling of neighbouring columns, a
     relative O((H/a)^2) ~ 0.4 % correction at a = 15 H; the full model's grid (30 cells per
-    half-width) ~0.1 %. Measured: |deviation| <= 0.07 %. Tolerance 0.5 %."""
+    half-width) ~0.1 %. Measured: |deviation| <= 0.07 %. Tolerance 0.5 %. The model's own error
+    estimate (``truncation``) bounds the deviation beyond the oracle's 0.4 % (it is calibrated on
+    incompressible layers, which err more: conservative here)."""
     speeds = np.array([0.3, 1.0]), np.array([3.0, 2.0])
     loads = np.array([P0, 1.5 * P0])
     for Vs in speeds:
-        got = full(Vs, loads)
+        res = full(Vs, loads, result=True)
+        got, bound = np.asarray(res.value), np.asarray(res.truncation)
         for i, V in enumerate(Vs):
             for j, P in enumerate(loads):
-                assert got[i, j] == pytest.approx(winkler_sls(P, R, H, G0, TAU, F, NU, V), rel=5e-3), (V, P)
+                exact = winkler_sls(P, R, H, G0, TAU, F, NU, V)
+                assert got[i, j] == pytest.approx(exact, rel=5e-3), (V, P)
+                assert abs(got[i, j] / exact - 1) <= bound[i, j] + 4e-3, (V, P)
 
 
 @pytest.mark.filterwarnings("ignore::jaxroll.ValidityWarning")  # the under-resolved points are flagged: the point

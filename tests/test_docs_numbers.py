@@ -90,3 +90,20 @@ def test_recorded_fit_examples_are_the_guides_commands():
     assert [command for _, command, _ in module.EXAMPLES] == guide
     rows = json.loads((REPO / "benchmarks" / "numbers.json").read_text())["fit_examples"]["rows"]
     assert {name: row["command"] for name, row in rows.items()} == {name: c for name, c, _ in module.EXAMPLES}
+
+
+def test_recorded_thin_layer_tables_are_the_librarys():
+    # docs/validation.md's thin-layer table (thin_layer_error.py --analyse --record): the tables
+    # jaxroll.grids reads are the recorded envelope (a re-analysis that moves them, or a hand edit
+    # of either, fails here), and the truncation bounds every recorded default point
+    import numpy as np
+
+    from jaxroll import grids
+
+    sec = json.loads((REPO / "benchmarks" / "numbers.json").read_text())["thin_layer_error"]
+    for g in ("cylinder", "sphere"):
+        assert np.array_equal(np.asarray(sec["tables"][g]["thin_error"]), np.asarray(grids.THIN_ERROR[g])), g
+    assert np.array_equal(np.asarray(sec["tables"]["cylinder"]["thin_broad_error"]),
+                          np.asarray(grids.THIN_BROAD_ERROR["cylinder"]))
+    assert sum(r["points"] for r in sec["summary"]) >= 600
+    assert all(r["bounded"] == r["points"] for r in sec["summary"])

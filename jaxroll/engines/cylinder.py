@@ -183,7 +183,7 @@ def result(s: CylinderSolution, grid: FixedGrid, layer, V, material) -> RollingR
         penetration=s.contact.penetration, pressure=s.contact.pressure, grid=s.x,
         iterations=s.contact.iterations, residual=s.contact.residual,
         error=full_model_error(s.resistance, s.resistance_dissipation, zeta, a / grid.spacing,
-                               "cylinder", s.half_width / a, breadth, s.half_width / layer.H),
+                               "cylinder", s.half_width / a, breadth, a / layer.H),
         value=full_model_value(s.resistance, s.resistance_dissipation, zeta),
     )
 

@@ -321,7 +321,7 @@ def result(s: SphereSolution, grid: FixedGrid, layer, V, material) -> RollingRes
         penetration=s.contact.penetration, pressure=s.contact.pressure, grid=(s.x, s.y),
         iterations=s.contact.iterations, residual=s.contact.residual,
         error=full_model_error(s.resistance, s.resistance_dissipation, zeta, a / grid.spacing,
-                               "sphere", s.contact_radius / a, breadth, s.contact_radius / layer.H),
+                               "sphere", s.contact_radius / a, breadth, a / layer.H),
         value=full_model_value(s.resistance, s.resistance_dissipation, zeta),
     )
 
