@@ -96,6 +96,51 @@ def default_method_table(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+#: docs/methods.md's comparison rows: (method, what it solves, geometries)
+COMPARED_ROWS = [
+    ("full", "pressure and contact set (primal-dual active set, FFT-applied compliance, implicit gradients)",
+     ("sphere", "cylinder")),
+    ("SP", "[ZG] sec. 3: 21 plane-strain slices, penetration and load consistent (eq. 11)", ("sphere",)),
+    ("PP", "slices in load equilibrium (eq. 10)", ("sphere",)),
+    ("PD", "slices with consistent penetration (eq. 9)", ("sphere",)),
+    ("direct", "[ZG] sec. 4: a stationary (elastic) pressure dissipating in the rolling compliance",
+     ("sphere", "cylinder")),
+]
+
+
+def _range(values, fmt):
+    lo, hi = fmt(min(values)), fmt(max(values))
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+def methods_compared(numbers: dict) -> str:
+    """docs/methods.md's table: each method's deviation from the full model at the recorded speeds
+    (one decimal), points it flags, and its per-call and first-call costs (ranges)."""
+    sec = numbers["default_method"]
+    rows = sec["rows"]
+    speeds = sorted({r["V"] for r in rows})
+    lines = [f"`{sec['command']}` ({_machine(sec['measured'])}); deviation = method / full model - 1 at "
+             f"V = {', '.join(f'{v:g}' for v in speeds)} m/s, `*` = the method flags the point not valid:",
+             "", "| `method=` | solves | geometry | vs full, H = 5 mm | vs full, H = 30 mm | per call | first call |",
+             "|---|---|---|---|---|---|---|"]
+    for method, solves, geometries in COMPARED_ROWS:
+        for k, g in enumerate(geometries):
+            sel = [r for r in rows if r["method"] == method and r["geometry"] == g]
+            if not sel:
+                continue
+            cells = []
+            for H in (0.005, 0.03):
+                pts = sorted((r for r in sel if r["H"] == H), key=lambda r: r["V"])
+                cells.append("reference" if method == "full" else
+                             ", ".join(f"{100 * r['deviation']:+.1f}{'' if r['valid'] else '*'}" for r in pts) + " %")
+            run = _range([r["run_s"] for r in sel], _time)
+            first = _range([r["first_s"] for r in sel if r["first_s"] > 0.5] or [r["first_s"] for r in sel], _time)
+            name = {"full": "jr.Full()", "direct": "jr.Direct()"}.get(method, f'jr.Slices("{method}")')
+            head = f"`{name}` | {solves}" if k == 0 else " | "
+            lines.append(f"| {head} | {g} | {cells[0]} | {cells[1]} | {run} | {first} |")
+    return "\n".join(lines)
+
+
 def first_use(numbers: dict) -> str:
     sec = numbers["first_use"]
     m = sec["measured"]
@@ -559,6 +604,7 @@ BLOCKS = {
     "prony-rolling": prony_rolling_table,
     "methods-table": methods_table,
     "default-method-table": default_method_table,
+    "methods-compared": methods_compared,
     "first-use": first_use,
     "batched-table": batched_table,
     "batched-gpu-table": batched_gpu_table,
@@ -577,7 +623,7 @@ BLOCKS = {
 
 #: files holding generated blocks
 FILES = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", ROOT / "docs" / "validation.md", ROOT / "docs" / "dma.md",
-         ROOT / "fitting" / "README.md"]
+         ROOT / "docs" / "methods.md", ROOT / "fitting" / "README.md"]
 
 _BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(\n<!-- /generated: \2 -->)", re.S)
 
