@@ -275,7 +275,7 @@ def slowest_tests(numbers: dict) -> str:
 
 #: resistance_forms.py's material tags, as the docs name them
 _FORMS_MATERIALS = {"s01": "SLS f = 0.1", "s03": "SLS f = 0.3", "s05": "SLS f = 0.5", "s1": "SLS f = 1",
-                    "s2": "SLS f = 2", "s3": "SLS f = 3",
+                    "s2": "SLS f = 2", "s3": "SLS f = 3", "s10": "SLS f = 10",
                     "pr": "Prony, 20 decades", "st": "Prony, 12 decades"}
 
 
