@@ -313,10 +313,15 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
     dtype = b.dtype
     atol = jnp.asarray(atol, dtype)
 
+    rows = jnp.arange(restart + 1)  # row numbers of the Hessenberg column, Q and g
+
     def arnoldi_step(c):
-        # V: the basis so far (rows > j zero, so the products over all its rows are exact)
+        # V: the basis so far (rows > j zero, so the products over all its rows are exact). Every
+        # update below is a whole-array select or a slice update, not a scatter (`.at[].set`): one
+        # fused kernel each, without the out-of-bounds guards of a scatter (j + 1 <= restart by
+        # the loop condition)
         j, V, R, Q, g = c
-        w = matvec(M(V[j]))
+        w = matvec(M(jax.lax.dynamic_index_in_dim(V, j, keepdims=False)))
         h = V @ w
         u = w - h @ V
         beta = jnp.linalg.norm(u)
@@ -327,21 +332,26 @@ def gmres(matvec, b, x0, *, atol, precond=None, restart=20, maxiter=80, has_aux=
             return u2, h + h2, jnp.linalg.norm(u2)
 
         # a second Gram-Schmidt pass only where cancellation made the first one inaccurate (the
-        # "twice is enough" test of Daniel, Gragg, Kaufman and Stewart)
-        w, h, beta = jax.lax.cond(beta < 0.7071 * jnp.linalg.norm(w), reorthogonalise,
+        # "twice is enough" test of Daniel, Gragg, Kaufman and Stewart, |u| < |w|/sqrt(2), with
+        # |w|^2 = |h|^2 + |u|^2: no reduction over w)
+        w, h, beta = jax.lax.cond(beta * beta < 0.5 * (h @ h + beta * beta), reorthogonalise,
                                   lambda _: (u, h, beta), None)
-        V = V.at[j + 1].set(w / jnp.where(beta > 0, beta, 1.0))
-        h = Q @ jnp.zeros(restart + 1, dtype).at[:V.shape[0]].set(h).at[j + 1].set(beta)  # earlier rotations
+        V = jax.lax.dynamic_update_slice(V, (w / jnp.where(beta > 0, beta, 1.0))[None], (j + 1, 0))
+        h = jnp.pad(h, (0, restart + 1 - V.shape[0]))
+        h = Q @ jnp.where(rows == j + 1, beta, h)  # the earlier rotations
         a, e = h[j], h[j + 1]
         den = jnp.sqrt(a * a + e * e)  # Krylov entries are O(|A M|): no overflow to guard
         ok = den > 0
         c_j = jnp.where(ok, a / jnp.where(ok, den, 1.0), 1.0)
         s_j = jnp.where(ok, e / jnp.where(ok, den, 1.0), 0.0)
-        h = h.at[j].set(den).at[j + 1].set(0.0)
-        q0, q1 = Q[j], Q[j + 1]
-        Q = Q.at[j].set(c_j * q0 + s_j * q1).at[j + 1].set(c_j * q1 - s_j * q0)
-        g = g.at[j + 1].set(-s_j * g[j]).at[j].set(c_j * g[j])
-        return j + 1, V, R.at[:, j].set(h), Q, g
+        h = jnp.where(rows == j, den, jnp.where(rows == j + 1, 0.0, h))
+        q0 = jax.lax.dynamic_index_in_dim(Q, j)
+        q1 = jax.lax.dynamic_index_in_dim(Q, j + 1)
+        at = rows[:, None]
+        Q = jnp.where(at == j, c_j * q0 + s_j * q1, jnp.where(at == j + 1, c_j * q1 - s_j * q0, Q))
+        g = jnp.where(rows == j, c_j * g[j], jnp.where(rows == j + 1, -s_j * g[j], g))
+        R = jnp.where(jnp.arange(restart) == j, h[:, None], R)
+        return j + 1, V, R, Q, g
 
     def arnoldi(state, last):
         return jax.lax.while_loop(lambda s: (s[0] < last) & (jnp.abs(s[4][s[0]]) > atol), arnoldi_step, state)

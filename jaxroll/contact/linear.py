@@ -61,18 +61,31 @@ DERIVATIVE_RESTART = 16
 
 
 class Deferred:
-    """A preconditioner ``v -> M v`` built where it is first applied: ``build()`` returns it.
-    The robust level of a preconditioner pair comes as one, so that its set-up (an FFT pair per
-    contact set) runs inside the fallback branch of :meth:`GMRES.solve_tracked`, i.e. only
-    where the cheap level did not converge."""
+    """A preconditioner ``v -> M v`` built where it is first applied: ``build()`` returns
+    ``build_fn(*operands)``. The robust level of a preconditioner pair comes as one, so that its
+    set-up (an FFT pair per contact set) runs inside the fallback branch of
+    :meth:`GMRES.solve_tracked`, i.e. only where the cheap level did not converge.
 
-    def __init__(self, build):
-        self.build = build
+    ``build(anchor)`` passes the operands through an optimisation barrier together with
+    ``anchor``, a value of the loop that applies the preconditioner: the set-up then depends on
+    the loop's state, and XLA cannot hoist it out of a loop that runs zero times (its
+    loop-invariant code motion would otherwise run it at every call)."""
+
+    def __init__(self, build_fn, *operands):
+        self.build_fn = build_fn
+        self.operands = operands
+
+    def build(self, anchor=None):
+        operands = self.operands
+        if anchor is not None:
+            operands, _ = jax.lax.optimization_barrier((operands, anchor))
+        return self.build_fn(*operands)
 
 
-def _built(precond):
-    """``precond`` itself, or the preconditioner a :class:`Deferred` builds."""
-    return precond.build() if isinstance(precond, Deferred) else precond
+def _built(precond, anchor=None):
+    """``precond`` itself, or the preconditioner a :class:`Deferred` builds (tied to ``anchor``,
+    see :meth:`Deferred.build`)."""
+    return precond.build(anchor) if isinstance(precond, Deferred) else precond
 
 
 class AbstractLinearSolver(eqx.Module):
@@ -215,7 +228,7 @@ class GMRES(AbstractLinearSolver):
 
         def fallback(c):  # at most one pass, in a while loop so that it is skipped when not needed
             x = c[0]
-            x, res, *aux = gmres(matvec, b, x, atol=atol, precond=_built(second), restart=self.fallback_restart,
+            x, res, *aux = gmres(matvec, b, x, atol=atol, precond=_built(second, x), restart=self.fallback_restart,
                                  maxiter=max(1, MAX_KRYLOV_ITERATIONS // self.fallback_restart), has_aux=has_aux)
             return x, res, jnp.asarray(True), *aux
 

@@ -95,7 +95,7 @@ class CirculantPreconditioner(eqx.Module):
         :class:`~jaxroll.contact.linear.Deferred` (its set-up, one application, runs only where
         it is used)."""
         return (self._block(in_set, w_in, w_out, u, v, c, transpose, True),
-                Deferred(lambda: self._block(in_set, w_in, w_out, u, v, c, transpose, False)))
+                Deferred(lambda *a: self._block(*a, transpose, False), in_set, w_in, w_out, u, v, c))
 
     def _block(self, in_set, w_in, w_out, u, v, c, transpose, cheap):
         mf = in_set.astype(float)
