@@ -57,12 +57,31 @@ def _shell_commands(docs=DOCS):
 SLOW = ("--method full", "make_synthetic.py", "reproduce")
 
 
+def _default_fit(line: str) -> bool:
+    """A fit of rolling data alone with the default method (the full model)."""
+    return line.startswith("jaxroll fit") and "--method" not in line and "--dma" not in line
+
+
 def _slow(line: str) -> bool:
-    """A command of :data:`SLOW`, or a fit of a sphere's rolling data with the default method (the
-    full 3D model: minutes; the cylinder's default fit, the same code path in 2D, runs always)."""
-    default_sphere_fit = (line.startswith("jaxroll fit") and "--method" not in line and "--geometry cylinder" not in line
-                          and "--dma" not in line)
-    return default_sphere_fit or any(s in line for s in SLOW)
+    """A command of :data:`SLOW`, or a fit with the default method: the full 3D model (minutes), or
+    the cylinder's (60 points with profile-likelihood intervals: 95 s of the default suite's 600 s
+    on 2 cores; its reduced copy, :data:`QUICK_EVERY`, runs always)."""
+    return _default_fit(line) or any(s in line for s in SLOW)
+
+
+#: The reduced copy of the cylinder's default fit that the default suite runs: the same command on
+#: every third speed of each load of its data file (20 of 60 points; the reduced fit of
+#: tests/test_fit_unbiased.py takes the same subset).
+QUICK_EVERY = 3
+
+
+def _thin(path: Path, every: int):
+    """Keep every ``every``-th speed of each load (12 speeds per load) of a rolling-data CSV in place."""
+    lines = path.read_text().splitlines(keepends=True)
+    head = next(i for i, ln in enumerate(lines) if not ln.startswith("#")) + 2  # comments, names, units
+    rows = lines[head:]
+    assert len(rows) % 12 == 0, path
+    path.write_text("".join(lines[:head] + [r for i, r in enumerate(rows) if i % 12 % every == 0]))
 
 
 def _env(light=True):
@@ -163,7 +182,9 @@ def _runnable():
         if line.startswith("jaxroll datasets"):
             setup.setdefault(doc, []).append(line)
         marks = [pytest.mark.slow] if _slow(line) else []
-        out.append(pytest.param(tuple(setup.get(doc, [])), line, marks=marks, id=f"{doc}:{line[:60]}"))
+        out.append(pytest.param(tuple(setup.get(doc, [])), line, False, marks=marks, id=f"{doc}:{line[:60]}"))
+        if _default_fit(line) and "--geometry cylinder" in line:
+            out.append(pytest.param(tuple(setup.get(doc, [])), line, True, id=f"{doc}:{line[:60]}-quick"))
     return out
 
 
@@ -175,9 +196,11 @@ def _argv(line, tmp_path):
     return [sys.executable, str(REPO / words[1]), *words[2:], "--out", str(tmp_path)]
 
 
-@pytest.mark.parametrize(("setup", "line"), _runnable())
-def test_shell_commands_run(setup, line, tmp_path):
+@pytest.mark.parametrize(("setup", "line", "quick"), _runnable())
+def test_shell_commands_run(setup, line, quick, tmp_path):
     for step in (*[s for s in setup if s != line], line):
+        if quick and step == line:  # the reduced copy: the command's data file thinned
+            _thin(tmp_path / shlex.split(line)[2], QUICK_EVERY)
         proc = subprocess.run(_argv(step, tmp_path), cwd=tmp_path, capture_output=True, text=True, timeout=1800,
                               env=_env(light=not step.startswith("jaxroll fit")), check=False)
         assert proc.returncode == 0, f"{step}: {proc.stderr[-3000:]}"
