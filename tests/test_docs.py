@@ -5,8 +5,9 @@ the files the examples read are the package's own (``jaxroll.datasets``). Python
 whole in a fresh interpreter. Shell blocks: every ``jaxroll`` command parses with the CLI's own
 parser (a misspelt option or a removed one fails here), and the commands that finish in
 seconds run for real, after the ``jaxroll datasets`` lines that precede them in the same
-document (they copy the example files into the folder); the slow ones (the sphere's full-model
-fit, the paper-resolution reproduce, regenerating the synthetic data) run under ``-m slow``.
+document (they copy the example files into the folder); the slow ones (the default full-model
+fits, the paper-resolution reproduce, regenerating the synthetic data) run under ``-m slow``, and
+the cylinder's default fit also runs always on a third of its data (``-quick``).
 """
 
 from __future__ import annotations
