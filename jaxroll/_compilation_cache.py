@@ -65,7 +65,7 @@ import jax
 
 from ._xla_options import compiler_options
 
-__all__ = ["ENV_VAR", "MAX_LOWERED_BYTES", "MIN_COMPILE_TIME", "cache_directory", "enable",
+__all__ = ["ENV_VAR", "MAX_LOWERED_BYTES", "MIN_COMPILE_TIME", "cache_directory", "compiled", "enable",
            "processor_tag"]
 
 #: Environment variable: ``0``/``off``/``false``/``no`` switches the cache off, any other
@@ -326,6 +326,33 @@ def compile_ahead(fn, *args) -> bool:
     return True
 
 
+def compiled(fn, args, static=None):
+    """``fn(*args, **static)`` (``static``: keyword arguments, all static) compiled ahead of time
+    from its stored lowered program (:func:`call`'s folder: loaded where a process stored it
+    before, lowered and stored otherwise; JAX's cache then serves the compiled program): a
+    function ``run(*new_args)`` of arguments shaped like ``args`` (the same static parts and
+    shapes), or ``None`` where the program cannot be stored (the cache off, a trace under way, a
+    static value without an exact text): the caller then compiles ``fn`` itself. For programs
+    that a caller compiles ahead of their run (:func:`jaxroll.buckets.compiled`)."""
+    if programs_directory() is None or not _outside_traces():
+        return None
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    if any(isinstance(x, jax.core.Tracer) for x in leaves):
+        return None
+    dynamic, memo_key = _memo_key(fn, leaves, treedef)
+    entry = memo_key is not None and _lowered(fn, leaves, treedef, dynamic, memo_key[3], static or {})
+    if not entry:
+        return None
+    jitted, out_tree = entry
+    program = jitted.lower(*[leaves[i] for i in dynamic]).compile()
+
+    def run(*new_args):
+        values = jax.tree_util.tree_leaves(new_args)
+        return jax.tree_util.tree_unflatten(out_tree, program(*[values[i] for i in dynamic]))
+
+    return run
+
+
 def _in_process(fn, leaves, treedef, dynamic):
     """``(run, None)``: ``fn`` at this static configuration as a top-level program of its own,
     compiled with jaxroll's XLA options (:mod:`jaxroll._xla_options`), for a program that is not
@@ -397,9 +424,10 @@ def _prepare_custom_calls(targets) -> bool:
     return all(t.startswith(_LAPACK) for t in targets)
 
 
-def _lowered(fn, leaves, treedef, dynamic, shapes):
-    """``(run, output structure)`` of ``fn`` at this configuration, loaded or lowered and stored;
-    ``False`` where it cannot be stored (then ``fn`` runs as usual)."""
+def _lowered(fn, leaves, treedef, dynamic, shapes, static=None):
+    """``(run, output structure)`` of ``fn`` at this configuration (``static``: keyword arguments
+    of ``fn``, static), loaded or lowered and stored; ``False`` where it cannot be stored (then
+    ``fn`` runs as usual)."""
     import dataclasses
     import logging
     import pickle
@@ -410,7 +438,8 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
     try:
         key = "|".join((_key_prefix(), _qualname_of(fn), _outside_source(fn), _structure(treedef),
                         _canon(tuple(None if _is_array(x) else x for x in leaves)), repr(shapes),
-                        repr(jax._src.config.trace_context())))
+                        repr(jax._src.config.trace_context()))) + (f"|{_canon(dict(sorted(static.items())))}"
+                                                                  if static else "")
     except _NotPlain:
         return False
     path = directory / f"{getattr(fn, '__name__', 'fn')}-{hashlib.sha256(key.encode()).hexdigest()[:32]}.pkl"
@@ -432,7 +461,7 @@ def _lowered(fn, leaves, treedef, dynamic, shapes):
         full = list(leaves)
         for i, v in zip(dynamic, values):
             full[i] = v
-        out, out_tree = jax.tree_util.tree_flatten(fn(*jax.tree_util.tree_unflatten(treedef, full)))
+        out, out_tree = jax.tree_util.tree_flatten(fn(*jax.tree_util.tree_unflatten(treedef, full), **(static or {})))
         structure.append(out_tree)
         return out
 

@@ -14,6 +14,7 @@ the groups of one class share a compiled program; the groups are padded to a pow
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -22,6 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _compilation_cache
 from ._numerics import as_float
 from ._xla_options import compiler_options
 
@@ -55,17 +57,20 @@ def class_lengths(windows, sizes) -> list:
 def compiled(fn, args, static) -> tuple:
     """``(call, compile seconds)``: ``fn`` (an ``eqx.filter_jit`` function) compiled ahead of time
     for ``args`` and the keyword arguments ``static``, kept by the static part and the shapes of
-    ``args`` (new values of the same shapes compile nothing; ``0.0`` seconds then)."""
+    ``args`` (new values of the same shapes compile nothing; ``0.0`` seconds then). With the
+    persistent cache on, the lowered program is stored too (:func:`jaxroll._compilation_cache.compiled`),
+    so a later process neither traces nor compiles it (a program with a host callback is not
+    stored: each process traces and compiles it)."""
     leaves, treedef = jax.tree_util.tree_flatten(args)
     key = (fn, treedef, tuple((x.shape, x.dtype) if eqx.is_array(x) else x for x in leaves),
            tuple(sorted(static.items())))
     seconds = 0.0
     if key not in _PROGRAMS:
         t = time.perf_counter()
-        _PROGRAMS[key] = fn.lower(*args, **static).compile(compiler_options())
+        stored = _compilation_cache.compiled(fn, args, static)
+        _PROGRAMS[key] = stored or functools.partial(fn.lower(*args, **static).compile(compiler_options()), **static)
         seconds = time.perf_counter() - t
-    program = _PROGRAMS[key]
-    return (lambda *a: program(*a, **static)), seconds
+    return _PROGRAMS[key], seconds
 
 
 @eqx.filter_jit

@@ -12,7 +12,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._numerics import as_float, check_plausible
+from ._numerics import as_float, check_plausible, input_checks
+from .engines.layer import is_quasistatic
 from .engines.stack import cover_thickness, with_cover_material, with_cover_thickness
 from .io import write_table
 
@@ -185,8 +186,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     check_roller_values(radius, P, V)
     material.checked(), layer.checked()
     _check_cover(material, shift, layer)
-    if not np.all(T > 0):
-        raise ValueError("temperatures must be positive [K]")
+    shift.check_temperatures(T)
     # under time-temperature superposition the contact depends on T and V through the reduced
     # speed V a_T (up to the layer's inertia): each class is solved in that order, then the load
     Vr = V * np.exp(np.asarray(shift.log_shift(jnp.asarray(T))))
@@ -255,7 +255,9 @@ def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, di
     pad, count = padded(idx, length)
     args = (method.dynamic(), material, shift, layer, as_float(radius), jnp.asarray(P[pad]),
             jnp.asarray(T[pad]), jnp.asarray(V[pad]), jnp.asarray(count), directions)
-    call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced))
+    # the host checked every rule of a layer without inertia (map_points); with inertia the
+    # speed's rule (below the shear-wave speed of the shifted material) is checked inside
+    call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced, checked=is_quasistatic(layer)))
     return call, args, idx
 
 
@@ -389,7 +391,6 @@ def _reduced(method, layer) -> bool:
     whole contact problem (kernel, contact size estimate, period check ``V tau_max``) that of the
     reference material at ``V a_T``. One material for all points lets the full models do the
     layer's speed-independent work once (:meth:`~jaxroll.methods.Full.evaluate_points`)."""
-    from .engines.layer import is_quasistatic
     from .methods import Full
 
     return isinstance(method, Full) and is_quasistatic(layer)
@@ -397,7 +398,7 @@ def _reduced(method, layer) -> bool:
 
 @eqx.filter_jit
 def _map_program(method, material, shift, layer, R, P, T, V, count, directions, *, geometry, reduced,
-                 adjoint=True):
+                 adjoint=True, checked=False):
     """Values, result codes, ``dR/dT``, ``dR/dH``, the derivatives along the material
     ``directions`` and contact radii at the points ``(T, V, P)`` (1D), the first ``count`` by
     :meth:`~jaxroll.methods.AbstractMethod.evaluate_points` in the given order (the full models:
@@ -408,7 +409,18 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
     ``dR_i/dH``, a material tangent every derivative along it. ``adjoint`` (static; default):
     the full models differentiate each point's value by one transposed contact solve that all
     these tangents share (``evaluate_points(adjoint=True)``), instead of one tangent solve per
-    direction; ``False``: one per direction (the same numbers to the solver tolerance)."""
+    direction; ``False``: one per direction (the same numbers to the solver tolerance).
+    ``checked`` (static): the inputs' rules were checked on the host (:func:`map_points`), so the
+    program holds no input checks (no host callback: JAX's persistent compilation cache can keep
+    it)."""
+    with input_checks(not checked):
+        return _map_values_and_derivatives(method, material, shift, layer, R, P, T, V, count, directions,
+                                           geometry=geometry, reduced=reduced, adjoint=adjoint)
+
+
+def _map_values_and_derivatives(method, material, shift, layer, R, P, T, V, count, directions, *, geometry,
+                                reduced, adjoint):
+    """The body of :func:`_map_program`."""
     from .materials.material import shift_factor
     from .rolling import _validated
 

@@ -9,6 +9,7 @@ import re
 import subprocess
 import sys
 import textwrap
+import warnings
 from pathlib import Path
 
 import equinox as eqx
@@ -101,6 +102,53 @@ def test_concrete_inputs_are_checked_on_the_host():
     flat = eqx.tree_at(lambda l: l.H, THIN, jnp.asarray(-1.0))
     with pytest.raises(ValueError, match="H must be a positive thickness"):
         jr.rolling_resistance(SLS, flat, radius=R, load=20.0, speed=0.01, method="direct")
+
+
+def test_temperature_rules_are_checked_on_the_host_and_traced_ones_inside():
+    """The shift law's rules (T > 0; WLF defined: C2 + T - T_ref > 0) on concrete temperatures
+    raise a one-line ValueError on the host, from the front doors and the map (whose programs
+    then hold no checks), and a traced temperature raises inside the program."""
+    wlf = jr.WLF(8.86, 101.6, 293.15)  # undefined below 293.15 - 101.6 = 191.55 K
+    cold = jr.at_temperature(SLS, wlf, 150.0)
+    with pytest.raises(ValueError, match=r"^WLF shift undefined: C2 \+ T - T_ref <= 0 .*; got T = 150 K$"):
+        _direct_of(cold)
+    with pytest.raises(ValueError, match=r"WLF shift undefined.*got T = 180 K"):
+        jr.resistance_map(SLS.to_prony(), wlf, THIN, radius=R, load=20.0, temperatures=[293.15, 180.0],
+                          speeds=[0.01], method="direct")
+    with pytest.raises(ValueError, match=r"temperature must be positive, in kelvin; got T = -5 K"):
+        jr.resistance_map(SLS.to_prony(), jr.Arrhenius(1e5, 293.15), THIN, radius=R, load=20.0,
+                          temperatures=[-5.0], speeds=[0.01], method="direct")
+    assert float(_direct_of(jr.at_temperature(SLS, wlf, 250.0)).value) > 0  # defined: no error
+    with pytest.raises(jax.errors.JaxRuntimeError, match="WLF shift undefined"):
+        jax.block_until_ready(jax.jit(lambda T: _direct_of(jr.at_temperature(SLS, wlf, T)).value)(150.0))
+
+
+def _direct_of(material):
+    with warnings.catch_warnings():  # (the direct method's validity is not what is checked here)
+        warnings.simplefilter("ignore", jr.ValidityWarning)
+        return jr.rolling_resistance(material, THIN, radius=R, load=20.0, speed=0.01, method="direct", throw=False)
+
+
+def test_map_programs_hold_no_host_callbacks_after_the_host_checks(monkeypatch):
+    """The map checks its concrete inputs on the host (map_points), so its program on a layer
+    without inertia holds no check (JAX's persistent cache can keep it: a second process's first
+    map neither traces nor compiles it, benchmarks/README.md); on a layer with inertia the speed's
+    rule against the shifted material's shear-wave speed is checked inside."""
+    from jaxroll import buckets
+
+    texts = []
+
+    def lowered(fn, args, static):
+        texts.append(fn.lower(*args, **static).as_text())
+        raise StopIteration  # nothing compiled or run
+
+    monkeypatch.setattr(buckets, "compiled", lowered)
+    wlf, cylinder = jr.WLF(8.86, 101.6, 293.15), jr.Full(grid=jr.FixedGrid(2e-4, 24))
+    for layer, method in ((jr.Layer(jnp.inf), cylinder), (jr.Layer(0.03, rho=1000.0), "direct")):
+        with pytest.raises(StopIteration):
+            jr.resistance_map(SLS.to_prony(), wlf, layer, radius=R, load=1e4, temperatures=[293.15],
+                              speeds=[0.01], geometry="cylinder", method=method)
+    assert "callback" not in texts[0] and "callback" in texts[1]
 
 
 # ------------------------------------------------------------------ compilation cache
@@ -210,6 +258,36 @@ def test_lowered_program_is_stored_loaded_and_gives_the_same_bits(tmp_path, monk
     _forget(_scaled)
     n = len(_TRACES)
     assert _same_bits(call(_scaled, x, f, "ccc"), _scaled(x, f, "ccc")) and len(_TRACES) == n + 1
+
+
+@eqx.filter_jit
+def _scaled_by_keyword(x, factor, *, label):
+    _TRACES.append(label)  # once per trace
+    return jnp.sin(x) * factor + len(label)
+
+
+def test_a_program_compiled_ahead_with_static_keywords_is_stored_and_loaded(tmp_path, monkeypatch):
+    """:func:`jaxroll.buckets.compiled` (the map's and the batched points' programs, compiled
+    before they run) through :func:`jaxroll._compilation_cache.compiled`: the lowered program is
+    stored with its static keyword arguments in its key, and a "new process" (both memories of
+    compiled programs dropped) loads it without tracing, with the function's own bits; another
+    keyword value is another program."""
+    from jaxroll import buckets
+
+    monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
+    monkeypatch.setattr(buckets, "_PROGRAMS", {})
+    x, f = jnp.linspace(0.1, 1.0, 6), jnp.asarray(2.0)
+    run, seconds = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "kw"})
+    assert len(list(tmp_path.glob("_scaled_by_keyword-*.pkl"))) == 1 and seconds > 0
+    assert _same_bits(run(x + 1.0, f), _scaled_by_keyword(x + 1.0, f, label="kw"))
+    n = len(_TRACES)
+    monkeypatch.setattr(buckets, "_PROGRAMS", {})
+    run, _ = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "kw"})
+    assert _same_bits(run(x * 3.0, f / 2), _scaled_by_keyword(x * 3.0, f / 2, label="kw"))
+    assert len(_TRACES) == n  # loaded, not traced (the direct call's program is jit's, traced above)
+    assert float(buckets.compiled(_scaled_by_keyword, (x, f), {"label": "other"})[0](x, f)[0]) == pytest.approx(
+        float(jnp.sin(x[0]) * 2.0 + 5.0), rel=1e-15)
+    assert len(list(tmp_path.glob("_scaled_by_keyword-*.pkl"))) == 2
 
 
 def test_a_program_compiled_ahead_is_the_one_the_call_runs(caplog, monkeypatch):

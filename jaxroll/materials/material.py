@@ -144,9 +144,29 @@ def _checked(module, rules):
 class AbstractShift(eqx.Module):
     """A time-temperature shift law: ``log a_T`` at temperature ``T`` [K], ``a_T(T_ref) = 1``."""
 
+    #: The one-line error where :meth:`undefined` holds.
+    UNDEFINED: ClassVar[str] = "shift law undefined at this temperature"
+
     @abc.abstractmethod
     def log_shift(self, T) -> jax.Array:
         """Natural logarithm of the shift factor ``a_T`` at temperature ``T`` [K]."""
+
+    def undefined(self, T) -> jax.Array:
+        """Where the law has no value at ``T`` [K] (boolean, shaped like ``T``): nowhere unless a
+        law says so."""
+        return jnp.zeros(jnp.shape(T), bool)
+
+    def check_temperatures(self, T) -> None:
+        """Host check of concrete temperatures ``T`` [K]: ``ValueError`` (one line, the first
+        offending temperature) where ``T`` is not positive or the law is undefined (the same rules
+        that :meth:`log_shift` and :func:`shift_factor` check inside a compiled program)."""
+        T = np.asarray(T, float)
+        bad = ~(np.isfinite(T) & (T > 0))
+        if bad.any():
+            raise ValueError(f"temperature must be positive, in kelvin; got T = {T[bad].flat[0]:g} K")
+        bad = np.asarray(self.undefined(jnp.asarray(T)))
+        if bad.any():
+            raise ValueError(f"{self.UNDEFINED}; got T = {T[bad].flat[0]:g} K")
 
 
 class StandardLinearSolid(AbstractMaterial):
@@ -257,12 +277,14 @@ class WLF(AbstractShift):
     C2: jax.Array = eqx.field(converter=_leaf)
     T_ref: jax.Array = eqx.field(converter=_leaf)
 
+    UNDEFINED: ClassVar[str] = "WLF shift undefined: C2 + T - T_ref <= 0 (temperature too far below T_ref)"
+
+    def undefined(self, T):
+        return self.C2 + (T - self.T_ref) <= 0
+
     def log_shift(self, T):
         dT = T - self.T_ref
-        denom = self.C2 + dT
-        denom = eqx.error_if(
-            denom, denom <= 0, "WLF shift undefined: C2 + T - T_ref <= 0 (temperature too far below T_ref)"
-        )
+        denom = check_input(self.C2 + dT, self.undefined(T), self.UNDEFINED)
         return -self.C1 * dT / denom * jnp.log(10.0)
 
 
@@ -286,7 +308,7 @@ def shift_factor(shift: AbstractShift, T) -> jax.Array:
     The material at temperature ``T`` behaves as the reference material at ``omega a_T``.
     """
     T = as_float(T)
-    T = eqx.error_if(T, T <= 0, "temperature must be positive, in kelvin")
+    T = check_input(T, T <= 0, "temperature must be positive, in kelvin")
     return jnp.exp(shift.log_shift(T))
 
 
@@ -302,6 +324,8 @@ class AtTemperature(AbstractMaterial):
 
     def checked(self):
         out = _checked(self, self._rules)
+        if not any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((self.shift, self.T))):
+            self.shift.check_temperatures(self.T)  # (traced: log_shift checks inside the program)
         return eqx.tree_at(lambda m: m.material, out, self.material.checked())
 
     def complex_modulus(self, omega):
