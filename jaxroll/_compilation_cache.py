@@ -290,6 +290,19 @@ def _memo_key(fn, leaves, treedef):
     return dynamic, key
 
 
+def _concrete(fn, args):
+    """``(leaves, treedef, dynamic, memo key)`` of a call of ``fn`` on ``args`` that can have a
+    program of its own (outside any trace, no traced leaf, hashable static values); ``None``
+    otherwise."""
+    if not _outside_traces():
+        return None
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    if any(isinstance(x, jax.core.Tracer) for x in leaves):
+        return None
+    dynamic, memo_key = _memo_key(fn, leaves, treedef)
+    return None if memo_key is None else (leaves, treedef, dynamic, memo_key)
+
+
 def compile_ahead(fn, *args) -> bool:
     """Start tracing and compiling, in a background thread, the program that ``call(fn, *args,
     store=False)`` runs (the values of ``args`` do not matter, their shapes and static parts do),
@@ -300,14 +313,12 @@ def compile_ahead(fn, *args) -> bool:
     its own: no options, a trace under way). An error in the thread is dropped: the call then
     compiles (and raises) as usual. The thread is not a daemon: an interpreter that ends while it
     compiles waits for it (a daemon thread stopped inside XLA aborted the process)."""
-    if compiler_options() is None or not _outside_traces():
+    if compiler_options() is None:
         return False
-    leaves, treedef = jax.tree_util.tree_flatten(args)
-    if any(isinstance(x, jax.core.Tracer) for x in leaves):
+    split = _concrete(fn, args)
+    if split is None:
         return False
-    dynamic, memo_key = _memo_key(fn, leaves, treedef)
-    if memo_key is None:
-        return False
+    leaves, treedef, dynamic, memo_key = split
     entry = _in_process(fn, leaves, treedef, dynamic)
     values = [leaves[i] for i in dynamic]
 
@@ -334,13 +345,11 @@ def compiled(fn, args, static=None):
     shapes), or ``None`` where the program cannot be stored (the cache off, a trace under way, a
     static value without an exact text): the caller then compiles ``fn`` itself. For programs
     that a caller compiles ahead of their run (:func:`jaxroll.buckets.compiled`)."""
-    if programs_directory() is None or not _outside_traces():
+    split = None if programs_directory() is None else _concrete(fn, args)
+    if split is None:
         return None
-    leaves, treedef = jax.tree_util.tree_flatten(args)
-    if any(isinstance(x, jax.core.Tracer) for x in leaves):
-        return None
-    dynamic, memo_key = _memo_key(fn, leaves, treedef)
-    entry = memo_key is not None and _lowered(fn, leaves, treedef, dynamic, memo_key[3], static or {})
+    leaves, treedef, dynamic, memo_key = split
+    entry = _lowered(fn, leaves, treedef, dynamic, memo_key[3], static or {})
     if not entry:
         return None
     jitted, out_tree = entry
