@@ -24,7 +24,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _compilation_cache
-from ._numerics import as_float
+from ._numerics import as_float, check_roller_values, input_checks
+from .engines.layer import is_quasistatic
 from ._xla_options import compiler_options
 
 __all__ = ["padded", "class_lengths", "compiled", "evaluate_buckets"]
@@ -54,31 +55,35 @@ def class_lengths(windows, sizes) -> list:
     return [longest[w] for w in windows]
 
 
-def compiled(fn, args, static) -> tuple:
+def compiled(fn, args, static, store=False) -> tuple:
     """``(call, compile seconds)``: ``fn`` (an ``eqx.filter_jit`` function) compiled ahead of time
     for ``args`` and the keyword arguments ``static``, kept by the static part and the shapes of
-    ``args`` (new values of the same shapes compile nothing; ``0.0`` seconds then). With the
-    persistent cache on, the lowered program is stored too (:func:`jaxroll._compilation_cache.compiled`),
-    so a later process neither traces nor compiles it (a program with a host callback is not
-    stored: each process traces and compiles it)."""
+    ``args`` (new values of the same shapes compile nothing; ``0.0`` seconds then). ``store``: the
+    program holds no host callback (its inputs were checked on the host), so with the persistent
+    cache on its lowered program is stored too (:func:`jaxroll._compilation_cache.compiled`) and a
+    later process neither traces nor compiles it (a program with a callback cannot be stored:
+    trying would trace it twice)."""
     leaves, treedef = jax.tree_util.tree_flatten(args)
     key = (fn, treedef, tuple((x.shape, x.dtype) if eqx.is_array(x) else x for x in leaves),
            tuple(sorted(static.items())))
     seconds = 0.0
     if key not in _PROGRAMS:
         t = time.perf_counter()
-        stored = _compilation_cache.compiled(fn, args, static)
+        stored = store and _compilation_cache.compiled(fn, args, static)
         _PROGRAMS[key] = stored or functools.partial(fn.lower(*args, **static).compile(compiler_options()), **static)
         seconds = time.perf_counter() - t
     return _PROGRAMS[key], seconds
 
 
 @eqx.filter_jit
-def _points_program(method, material, layer, R, P, V, count, *, geometry):
+def _points_program(method, material, layer, R, P, V, count, *, geometry, checked=False):
+    """Values and result codes of :func:`evaluate_buckets`' points; ``checked`` (static): the
+    inputs' rules were checked on the host, so the program holds no input checks."""
     from .rolling import _validated
 
-    res = method.evaluate_points(material, layer, R, P, V, geometry, axes=(None, None, None, 0, 0), count=count)
-    res = jax.vmap(lambda r, p, v: _validated(method, material, layer, r, R, p, v, geometry))(res, P, V)
+    with input_checks(not checked):
+        res = method.evaluate_points(material, layer, R, P, V, geometry, axes=(None, None, None, 0, 0), count=count)
+        res = jax.vmap(lambda r, p, v: _validated(method, material, layer, r, R, p, v, geometry))(res, P, V)
     return res.value, res.result
 
 
@@ -92,6 +97,9 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
     :func:`jaxroll.rolling_resistance` at each point to the solver tolerance. ``buckets``: the
     result of that method for these points, if already computed."""
     loads, speeds = np.broadcast_arrays(np.asarray(loads, float).ravel(), np.asarray(speeds, float).ravel())
+    check_roller_values(radius, loads, speeds)
+    material.checked(), layer.checked()
+    checked = is_quasistatic(layer)  # (with inertia the speed's rule is checked inside)
     values, results = np.empty(loads.size), np.empty(loads.size, int)
     compile_s = run_s = 0.0
     if buckets is None:
@@ -104,7 +112,7 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
         pad, count = padded(idx, length)
         args = (m.dynamic(), material, layer, as_float(radius), jnp.asarray(loads[pad]),
                 jnp.asarray(speeds[pad]), jnp.asarray(count))
-        call, c = compiled(_points_program, args, dict(geometry=geometry))
+        call, c = compiled(_points_program, args, dict(geometry=geometry, checked=checked), store=checked)
         t = time.perf_counter()
         v, r = (np.asarray(x)[:count] for x in jax.block_until_ready(call(*args)))
         run_s, compile_s = run_s + time.perf_counter() - t, compile_s + c

@@ -257,7 +257,8 @@ def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, di
             jnp.asarray(T[pad]), jnp.asarray(V[pad]), jnp.asarray(count), directions)
     # the host checked every rule of a layer without inertia (map_points); with inertia the
     # speed's rule (below the shear-wave speed of the shifted material) is checked inside
-    call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced, checked=is_quasistatic(layer)))
+    checked = is_quasistatic(layer)
+    call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced, checked=checked), store=checked)
     return call, args, idx
 
 

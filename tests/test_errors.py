@@ -138,8 +138,8 @@ def test_map_programs_hold_no_host_callbacks_after_the_host_checks(monkeypatch):
 
     texts = []
 
-    def lowered(fn, args, static):
-        texts.append(fn.lower(*args, **static).as_text())
+    def lowered(fn, args, static, store):
+        texts.append((fn.lower(*args, **static).as_text(), store))
         raise StopIteration  # nothing compiled or run
 
     monkeypatch.setattr(buckets, "compiled", lowered)
@@ -148,7 +148,8 @@ def test_map_programs_hold_no_host_callbacks_after_the_host_checks(monkeypatch):
         with pytest.raises(StopIteration):
             jr.resistance_map(SLS.to_prony(), wlf, layer, radius=R, load=1e4, temperatures=[293.15],
                               speeds=[0.01], geometry="cylinder", method=method)
-    assert "callback" not in texts[0] and "callback" in texts[1]
+    # stored (its lowered program: jaxroll._compilation_cache.compiled) only without callbacks
+    assert [("callback" in text, store) for text, store in texts] == [(False, True), (True, False)]
 
 
 # ------------------------------------------------------------------ compilation cache
@@ -277,15 +278,15 @@ def test_a_program_compiled_ahead_with_static_keywords_is_stored_and_loaded(tmp_
     monkeypatch.setattr(_compilation_cache, "programs_directory", lambda: tmp_path)
     monkeypatch.setattr(buckets, "_PROGRAMS", {})
     x, f = jnp.linspace(0.1, 1.0, 6), jnp.asarray(2.0)
-    run, seconds = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "kw"})
+    run, seconds = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "kw"}, store=True)
     assert len(list(tmp_path.glob("_scaled_by_keyword-*.pkl"))) == 1 and seconds > 0
     assert _same_bits(run(x + 1.0, f), _scaled_by_keyword(x + 1.0, f, label="kw"))
     n = len(_TRACES)
     monkeypatch.setattr(buckets, "_PROGRAMS", {})
-    run, _ = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "kw"})
+    run, _ = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "kw"}, store=True)
     assert _same_bits(run(x * 3.0, f / 2), _scaled_by_keyword(x * 3.0, f / 2, label="kw"))
     assert len(_TRACES) == n  # loaded, not traced (the direct call's program is jit's, traced above)
-    assert float(buckets.compiled(_scaled_by_keyword, (x, f), {"label": "other"})[0](x, f)[0]) == pytest.approx(
+    assert float(buckets.compiled(_scaled_by_keyword, (x, f), {"label": "other"}, store=True)[0](x, f)[0]) == pytest.approx(
         float(jnp.sin(x[0]) * 2.0 + 5.0), rel=1e-15)
     assert len(list(tmp_path.glob("_scaled_by_keyword-*.pkl"))) == 2
 
