@@ -343,8 +343,10 @@ def compiled(fn, args, static=None):
     before, lowered and stored otherwise; JAX's cache then serves the compiled program): a
     function ``run(*new_args)`` of arguments shaped like ``args`` (the same static parts and
     shapes), or ``None`` where the program cannot be stored (the cache off, a trace under way, a
-    static value without an exact text): the caller then compiles ``fn`` itself. For programs
-    that a caller compiles ahead of their run (:func:`jaxroll.buckets.compiled`)."""
+    static value without an exact text, an export JAX refuses, e.g. of a program with a host
+    callback) or the loaded one does not compile: the caller then compiles ``fn`` itself. A loaded
+    program that fails to run leaves ``fn`` to run itself from then on (as :func:`call`). For
+    programs that a caller compiles ahead of their run (:func:`jaxroll.buckets.compiled`)."""
     split = None if programs_directory() is None else _concrete(fn, args)
     if split is None:
         return None
@@ -353,11 +355,19 @@ def compiled(fn, args, static=None):
     if not entry:
         return None
     jitted, out_tree = entry
-    program = jitted.lower(*[leaves[i] for i in dynamic]).compile()
+    try:
+        program = [jitted.lower(*[leaves[i] for i in dynamic]).compile()]
+    except Exception:  # noqa: BLE001  (a stored program this JAX cannot compile: the caller compiles fn)
+        return None
 
     def run(*new_args):
-        values = jax.tree_util.tree_leaves(new_args)
-        return jax.tree_util.tree_unflatten(out_tree, program(*[values[i] for i in dynamic]))
+        if program[0] is not None:
+            values = jax.tree_util.tree_leaves(new_args)
+            try:
+                return jax.tree_util.tree_unflatten(out_tree, program[0](*[values[i] for i in dynamic]))
+            except Exception:  # noqa: BLE001  (fn itself from now on, which raises its own errors)
+                program[0] = None
+        return fn(*new_args, **(static or {}))
 
     return run
 
@@ -407,9 +417,12 @@ def _outside_source(fn) -> str:
 
 
 def _is_array(x) -> bool:
+    """An input of the program (not part of its key): equinox's ``is_array`` (JAX and NumPy
+    arrays, NumPy scalars), so that a program stored for an ``equinox.filter_jit`` function takes
+    the same inputs as the function's own (a NumPy scalar is an input of both)."""
     import numpy as np
 
-    return isinstance(x, (jax.Array, np.ndarray))
+    return isinstance(x, (jax.Array, np.ndarray, np.generic))
 
 
 #: Prefix of jaxlib's LAPACK kernels (e.g. ``lapack_dtrsm_ffi``, a triangular solve).

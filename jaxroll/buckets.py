@@ -25,7 +25,7 @@ import numpy as np
 
 from . import _compilation_cache
 from ._numerics import as_float, check_roller_values, input_checks
-from .engines.layer import is_quasistatic
+from .engines.layer import check_subsonic
 from ._xla_options import compiler_options
 
 __all__ = ["padded", "class_lengths", "compiled", "evaluate_buckets"]
@@ -62,7 +62,7 @@ def compiled(fn, args, static, store=False) -> tuple:
     program holds no host callback (its inputs were checked on the host), so with the persistent
     cache on its lowered program is stored too (:func:`jaxroll._compilation_cache.compiled`) and a
     later process neither traces nor compiles it (a program with a callback cannot be stored:
-    trying would trace it twice)."""
+    trying would lower it twice)."""
     leaves, treedef = jax.tree_util.tree_flatten(args)
     key = (fn, treedef, tuple((x.shape, x.dtype) if eqx.is_array(x) else x for x in leaves),
            tuple(sorted(static.items())))
@@ -99,7 +99,7 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
     loads, speeds = np.broadcast_arrays(np.asarray(loads, float).ravel(), np.asarray(speeds, float).ravel())
     check_roller_values(radius, loads, speeds)
     material.checked(), layer.checked()
-    checked = is_quasistatic(layer)  # (with inertia the speed's rule is checked inside)
+    check_subsonic(material, layer, speeds)  # every rule of the concrete inputs, on the host (as the front doors)
     values, results = np.empty(loads.size), np.empty(loads.size, int)
     compile_s = run_s = 0.0
     if buckets is None:
@@ -112,7 +112,7 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
         pad, count = padded(idx, length)
         args = (m.dynamic(), material, layer, as_float(radius), jnp.asarray(loads[pad]),
                 jnp.asarray(speeds[pad]), jnp.asarray(count))
-        call, c = compiled(_points_program, args, dict(geometry=geometry, checked=checked), store=checked)
+        call, c = compiled(_points_program, args, dict(geometry=geometry, checked=True), store=True)
         t = time.perf_counter()
         v, r = (np.asarray(x)[:count] for x in jax.block_until_ready(call(*args)))
         run_s, compile_s = run_s + time.perf_counter() - t, compile_s + c

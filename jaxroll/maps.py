@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import as_float, check_plausible, input_checks
-from .engines.layer import is_quasistatic
+from .engines.layer import Layer, check_subsonic, is_quasistatic
 from .engines.stack import cover_thickness, with_cover_material, with_cover_thickness
 from .io import write_table
 
@@ -185,6 +185,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     check_plausible(where, radius=radius, H=cover_thickness(layer), G0=material.relaxed_modulus(), speed=V)
     check_roller_values(radius, P, V)
     material.checked(), layer.checked()
+    check_subsonic(material, layer, V)  # (a_T leaves the relaxed modulus, so the shear-wave speed, as it is)
     _check_cover(material, shift, layer)
     shift.check_temperatures(T)
     # under time-temperature superposition the contact depends on T and V through the reduced
@@ -255,9 +256,9 @@ def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, di
     pad, count = padded(idx, length)
     args = (method.dynamic(), material, shift, layer, as_float(radius), jnp.asarray(P[pad]),
             jnp.asarray(T[pad]), jnp.asarray(V[pad]), jnp.asarray(count), directions)
-    # the host checked every rule of a layer without inertia (map_points); with inertia the
-    # speed's rule (below the shear-wave speed of the shifted material) is checked inside
-    checked = is_quasistatic(layer)
+    # map_points checked every rule of a Layer on the host; a Stack's plies may carry shift laws
+    # of their own, evaluated at the map's temperatures: their domains are checked inside
+    checked = isinstance(layer, Layer)
     call, _ = compiled(_map_program, args, dict(geometry=geometry, reduced=reduced, checked=checked), store=checked)
     return call, args, idx
 

@@ -81,7 +81,8 @@ def _thin(path: Path, every: int):
     lines = path.read_text().splitlines(keepends=True)
     head = next(i for i, ln in enumerate(lines) if not ln.startswith("#")) + 2  # comments, names, units
     rows = lines[head:]
-    assert len(rows) % 12 == 0, path
+    loads = [r.split(",")[1] for r in rows]  # (speed, load, ...): one load per block of 12 speeds
+    assert len(rows) % 12 == 0 and all(len(set(loads[i:i + 12])) == 1 for i in range(0, len(rows), 12)), path
     path.write_text("".join(lines[:head] + [r for i, r in enumerate(rows) if i % 12 % every == 0]))
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 import pytest
 
 import jaxroll as jr
@@ -119,6 +120,15 @@ def test_temperature_rules_are_checked_on_the_host_and_traced_ones_inside():
         jr.resistance_map(SLS.to_prony(), jr.Arrhenius(1e5, 293.15), THIN, radius=R, load=20.0,
                           temperatures=[-5.0], speeds=[0.01], method="direct")
     assert float(_direct_of(jr.at_temperature(SLS, wlf, 250.0)).value) > 0  # defined: no error
+    # a Stack's lower ply is checked on the host too (the front door's program holds no checks)
+    stack = jr.Stack([jr.Ply(SLS, H=0.003), jr.Ply(cold, H=0.003)])
+    with pytest.raises(ValueError, match=r"WLF shift undefined.*got T = 150 K"):
+        jr.rolling_resistance(SLS, stack, radius=R, load=20.0, speed=0.01, method="direct", throw=False)
+    # a joint fit: the initial law at the DMA temperatures on the host (a fitted C2 is checked inside)
+    dma = jr.DMAData(np.array([1.0, 10.0]), np.array([3e6, 4e6]), np.array([1e5, 2e5]), temperature=np.array([293.15, 250.0]))
+    with pytest.raises(ValueError, match=r"WLF shift undefined.*got T = 250 K"):
+        jr.fit_material(jr.RollingData(np.array([0.01]), np.array([20.0]), np.array([0.1])), dma,
+                        initial=SLS, layer=THIN, radius=R, method="direct", shift=jr.WLF(8.86, 30.0, 293.15))
     with pytest.raises(jax.errors.JaxRuntimeError, match="WLF shift undefined"):
         jax.block_until_ready(jax.jit(lambda T: _direct_of(jr.at_temperature(SLS, wlf, T)).value)(150.0))
 
@@ -130,10 +140,11 @@ def _direct_of(material):
 
 
 def test_map_programs_hold_no_host_callbacks_after_the_host_checks(monkeypatch):
-    """The map checks its concrete inputs on the host (map_points), so its program on a layer
-    without inertia holds no check (JAX's persistent cache can keep it: a second process's first
-    map neither traces nor compiles it, benchmarks/README.md); on a layer with inertia the speed's
-    rule against the shifted material's shear-wave speed is checked inside."""
+    """The map checks its concrete inputs on the host (map_points), so its program on a
+    :class:`jaxroll.Layer`, with inertia or without, holds no check (JAX's persistent cache can
+    keep it: a second process's first map neither traces nor compiles it, benchmarks/README.md);
+    on a :class:`jaxroll.Stack` (whose plies may carry shift laws of their own, evaluated at the
+    map's temperatures) the rules are checked inside, and that program is not stored."""
     from jaxroll import buckets
 
     texts = []
@@ -143,13 +154,19 @@ def test_map_programs_hold_no_host_callbacks_after_the_host_checks(monkeypatch):
         raise StopIteration  # nothing compiled or run
 
     monkeypatch.setattr(buckets, "compiled", lowered)
-    wlf, cylinder = jr.WLF(8.86, 101.6, 293.15), jr.Full(grid=jr.FixedGrid(2e-4, 24))
-    for layer, method in ((jr.Layer(jnp.inf), cylinder), (jr.Layer(0.03, rho=1000.0), "direct")):
+    wlf, cylinder, prony = jr.WLF(8.86, 101.6, 293.15), jr.Full(grid=jr.FixedGrid(2e-4, 24)), SLS.to_prony()
+    inertial = jr.Layer(0.03, rho=1000.0)
+    for layer, method in ((jr.Layer(jnp.inf), cylinder), (inertial, "direct"),
+                          (jr.Stack([jr.Ply(prony, H=0.03)]), "direct")):
         with pytest.raises(StopIteration):
-            jr.resistance_map(SLS.to_prony(), wlf, layer, radius=R, load=1e4, temperatures=[293.15],
+            jr.resistance_map(prony, wlf, layer, radius=R, load=1e4, temperatures=[293.15],
                               speeds=[0.01], geometry="cylinder", method=method)
     # stored (its lowered program: jaxroll._compilation_cache.compiled) only without callbacks
-    assert [("callback" in text, store) for text, store in texts] == [(False, True), (True, False)]
+    assert [("callback" in text, store) for text, store in texts] == [(False, True), (False, True), (True, False)]
+    # the rule the inertial layer's program no longer checks: on the host (c_s = 54.8 m/s)
+    with pytest.raises(ValueError, match=r"shear-wave speed sqrt\(G0/rho\) of the layer.*got V = 60 m/s"):
+        jr.resistance_map(prony, wlf, inertial, radius=R, load=1e4, temperatures=[293.15], speeds=[60.0],
+                          geometry="cylinder", method="direct")
 
 
 # ------------------------------------------------------------------ compilation cache
@@ -289,6 +306,10 @@ def test_a_program_compiled_ahead_with_static_keywords_is_stored_and_loaded(tmp_
     assert float(buckets.compiled(_scaled_by_keyword, (x, f), {"label": "other"}, store=True)[0](x, f)[0]) == pytest.approx(
         float(jnp.sin(x[0]) * 2.0 + 5.0), rel=1e-15)
     assert len(list(tmp_path.glob("_scaled_by_keyword-*.pkl"))) == 2
+    # a NumPy scalar is an input of the stored program, as of the function's own (not a constant)
+    monkeypatch.setattr(buckets, "_PROGRAMS", {})
+    run, _ = buckets.compiled(_scaled_by_keyword, (x, np.float64(2.0)), {"label": "np"}, store=True)
+    assert _same_bits(run(x, np.float64(5.0)), _scaled_by_keyword(x, np.float64(5.0), label="np"))
 
 
 def test_a_program_compiled_ahead_is_the_one_the_call_runs(caplog, monkeypatch):

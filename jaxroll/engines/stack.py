@@ -206,13 +206,18 @@ class Stack(eqx.Module):
         return out
 
     def checked(self) -> "Stack":
-        """The stack with every ply's ``H`` and ``rho`` checked (:meth:`Layer.checked`): concrete
-        values on the host (``ValueError``; NumPy only, no device work: the front doors check
-        every call), traced ones inside compiled programs."""
+        """The stack with every ply's ``H`` and ``rho`` checked (:meth:`Layer.checked`), and every
+        ply's and the base's material (``material.checked()``: e.g. a temperature-shifted ply's
+        temperature in its shift law's domain): concrete values on the host (``ValueError``; NumPy
+        only, no device work: the front doors check every call), traced ones inside compiled
+        programs (the materials where they are used)."""
         if not any_traced(self):
             for p in self.plies:
                 _require("Ply.H", np.asarray(p.H), lambda v: v > 0, "a positive, finite thickness in m")
                 _require("Ply.rho", np.asarray(p.rho), lambda v: v >= 0, "a finite, non-negative density in kg/m^3")
+                p.material.checked()
+            if self.base is not None:
+                self.base.material.checked()
             return self
         plies = []
         for p in self.plies:

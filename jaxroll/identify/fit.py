@@ -501,13 +501,14 @@ def _residuals_and_jacobian_jit(logp, model, data, problem, starts=None):
     inertia has no supersonic speed. The program then holds no host callback, so JAX's persistent
     compilation cache keeps it (:mod:`jaxroll._compilation_cache`): a later process fitting data
     of the same shape on a grid of the same window loads it instead of compiling. With a layer
-    with inertia or a :class:`jaxroll.Stack` (the supersonic rule depends on the fitted modulus)
-    the rules are checked inside.
+    with inertia or a :class:`jaxroll.Stack` (the supersonic rule depends on the fitted modulus),
+    or with a time-temperature shift (its law's domain, e.g. WLF's ``C2 + T - T_ref > 0``, depends
+    on the data's temperatures and on fitted shift parameters) the rules are checked inside.
 
     ``starts``: ``None``, or (per-point Jacobian only, :func:`_point_starts`) each point's start
     for its contact solves; then the return is ``(r, J, finals, failed)``, ``finals`` the starts
     at ``logp`` (the next evaluation's), ``failed`` where a point's solver did not converge."""
-    with input_checks(not is_quasistatic(model[1])):
+    with input_checks(not is_quasistatic(model[1]) or model[2] is not None):
         return _residuals_and_jacobian(logp, model, data, problem, starts)
 
 
@@ -665,6 +666,8 @@ def _check_problem(rolling, dma, initial, free, layer, radius, geometry, method,
         raise ValueError("'H' can only be fitted from rolling-resistance data with a layer")
     if dma is not None and dma.temperature is not None and shift is None:
         raise ValueError("DMA data at several temperatures need a shift (jr.WLF or jr.Arrhenius)")
+    if dma is not None and dma.temperature is not None:
+        shift.check_temperatures(dma.temperature)  # the initial law (a fitted one is checked inside)
     if rolling is None:
         return None
     if layer is None or radius is None:

@@ -164,7 +164,8 @@ class AbstractShift(eqx.Module):
         bad = ~(np.isfinite(T) & (T > 0))
         if bad.any():
             raise ValueError(f"temperature must be positive, in kelvin; got T = {T[bad].flat[0]:g} K")
-        bad = np.asarray(self.undefined(jnp.asarray(T)))
+        host = jax.tree_util.tree_map(np.asarray, self)  # NumPy leaves: the rule without device work
+        bad = np.asarray(host.undefined(T))
         if bad.any():
             raise ValueError(f"{self.UNDEFINED}; got T = {T[bad].flat[0]:g} K")
 
