@@ -120,6 +120,11 @@ def test_temperature_rules_are_checked_on_the_host_and_traced_ones_inside():
         jr.resistance_map(SLS.to_prony(), jr.Arrhenius(1e5, 293.15), THIN, radius=R, load=20.0,
                           temperatures=[-5.0], speeds=[0.01], method="direct")
     assert float(_direct_of(jr.at_temperature(SLS, wlf, 250.0)).value) > 0  # defined: no error
+    # the laws' own parameters, at construction (a NaN would reach every shifted modulus)
+    with pytest.raises(ValueError, match=r"WLF.C2 must be a finite number of kelvin; got nan"):
+        jr.WLF(8.86, float("nan"), 293.15)
+    with pytest.raises(ValueError, match=r"Arrhenius.T_ref must be a positive, finite temperature in K; got 0"):
+        jr.Arrhenius(1e5, 0.0)
     # a Stack's lower ply is checked on the host too (the front door's program holds no checks)
     stack = jr.Stack([jr.Ply(SLS, H=0.003), jr.Ply(cold, H=0.003)])
     with pytest.raises(ValueError, match=r"WLF shift undefined.*got T = 150 K"):

@@ -280,6 +280,11 @@ class WLF(AbstractShift):
 
     UNDEFINED: ClassVar[str] = "WLF shift undefined: C2 + T - T_ref <= 0 (temperature too far below T_ref)"
 
+    def __check_init__(self):
+        _require("WLF.C1", self.C1, np.isfinite, "a finite number")
+        _require("WLF.C2", self.C2, np.isfinite, "a finite number of kelvin")
+        _require("WLF.T_ref", self.T_ref, lambda v: v > 0, "a positive, finite temperature in K")
+
     def undefined(self, T):
         return self.C2 + (T - self.T_ref) <= 0
 
@@ -298,6 +303,10 @@ class Arrhenius(AbstractShift):
 
     activation_energy: jax.Array = eqx.field(converter=_leaf)
     T_ref: jax.Array = eqx.field(converter=_leaf)
+
+    def __check_init__(self):
+        _require("Arrhenius.activation_energy", self.activation_energy, np.isfinite, "a finite energy in J/mol")
+        _require("Arrhenius.T_ref", self.T_ref, lambda v: v > 0, "a positive, finite temperature in K")
 
     def log_shift(self, T):
         return self.activation_energy / GAS_CONSTANT * (1.0 / T - 1.0 / self.T_ref)
