@@ -25,7 +25,6 @@ import numpy as np
 
 from . import _compilation_cache
 from ._numerics import as_float, check_roller_values, input_checks
-from .engines.layer import check_subsonic
 from ._xla_options import compiler_options
 
 __all__ = ["padded", "class_lengths", "compiled", "evaluate_buckets"]
@@ -76,12 +75,13 @@ def compiled(fn, args, static, store=False) -> tuple:
 
 
 @eqx.filter_jit
-def _points_program(method, material, layer, R, P, V, count, *, geometry, checked=False):
-    """Values and result codes of :func:`evaluate_buckets`' points; ``checked`` (static): the
-    inputs' rules were checked on the host, so the program holds no input checks."""
+def _points_program(method, material, layer, R, P, V, count, *, geometry):
+    """Values and result codes of :func:`evaluate_buckets`' points, whose inputs' rules it checked
+    on the host: the program holds no input checks (no host callback: its lowered program is
+    stored)."""
     from .rolling import _validated
 
-    with input_checks(not checked):
+    with input_checks(False):
         res = method.evaluate_points(material, layer, R, P, V, geometry, axes=(None, None, None, 0, 0), count=count)
         res = jax.vmap(lambda r, p, v: _validated(method, material, layer, r, R, p, v, geometry))(res, P, V)
     return res.value, res.result
@@ -97,9 +97,10 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
     :func:`jaxroll.rolling_resistance` at each point to the solver tolerance. ``buckets``: the
     result of that method for these points, if already computed."""
     loads, speeds = np.broadcast_arrays(np.asarray(loads, float).ravel(), np.asarray(speeds, float).ravel())
-    check_roller_values(radius, loads, speeds)
-    material.checked(), layer.checked()
-    check_subsonic(material, layer, speeds)  # every rule of the concrete inputs, on the host (as the front doors)
+    from .rolling import _check_models_on_host
+
+    check_roller_values(radius, loads, speeds)  # every rule of the concrete inputs, on the host (as the front doors)
+    _check_models_on_host(material, layer, speeds)
     values, results = np.empty(loads.size), np.empty(loads.size, int)
     compile_s = run_s = 0.0
     if buckets is None:
@@ -112,7 +113,7 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
         pad, count = padded(idx, length)
         args = (m.dynamic(), material, layer, as_float(radius), jnp.asarray(loads[pad]),
                 jnp.asarray(speeds[pad]), jnp.asarray(count))
-        call, c = compiled(_points_program, args, dict(geometry=geometry, checked=True), store=True)
+        call, c = compiled(_points_program, args, dict(geometry=geometry), store=True)
         t = time.perf_counter()
         v, r = (np.asarray(x)[:count] for x in jax.block_until_ready(call(*args)))
         run_s, compile_s = run_s + time.perf_counter() - t, compile_s + c

@@ -812,18 +812,19 @@ THIN_ERROR = {
     ),
 }
 
-#: Relative error [%] of the 2D model's reported value for a broad spectrum near the peak
-#: (:data:`BROAD_ZETA`) on thin layers, per unit breadth, by the blocks of :data:`THIN_RATIOS`
-#: (rows) and :data:`THIN_CELLS` (columns): the Prony series of :data:`THIN_ERROR`'s calibration
-#: (regime zeta 0.9-1.1, breadth ~1) at 1e-6..1e3 m/s, which errs up to 35x more than the
-#: standard linear solids there (a/H = 15, 12 cells: 76 % against 2.2 %). The sphere's study has
-#: no broad spectrum: its thin layers read the half-space's :data:`SPHERE_BROAD_ERROR`.
 #: Breadth (:func:`regime`) from which a spectrum reads :data:`THIN_BROAD_ERROR` in full (below it
 #: in proportion): the error on thin layers does not fall with the breadth as on a half-space (a
 #: 21-term Prony series at breadth 0.61, a/H = 3.4, zeta = 1, 25 cells: 1.03 % off, against
 #: 0.77 % per unit breadth in the table).
 THIN_BROAD_FULL = 0.5
 
+#: Relative error [%] of the 2D model's reported value for a broad spectrum near the peak
+#: (:data:`BROAD_ZETA`) on thin layers, from breadth :data:`THIN_BROAD_FULL` (below it in
+#: proportion to the breadth), by the blocks of :data:`THIN_RATIOS`
+#: (rows) and :data:`THIN_CELLS` (columns): the Prony series of :data:`THIN_ERROR`'s calibration
+#: (regime zeta 0.9-1.1, breadth ~1) at 1e-6..1e3 m/s, which errs up to 35x more than the
+#: standard linear solids there (a/H = 15, 12 cells: 76 % against 2.2 %). The sphere's study has
+#: no broad spectrum: its thin layers read the half-space's :data:`SPHERE_BROAD_ERROR`.
 THIN_BROAD_ERROR = {
     "cylinder": (
         (0.48, 0.13, 0.03, 0.019, 0.01, 0.01),

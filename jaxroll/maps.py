@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._numerics import as_float, check_plausible, input_checks
-from .engines.layer import Layer, check_subsonic, is_quasistatic
+from .engines.layer import Layer, is_quasistatic
 from .engines.stack import cover_thickness, with_cover_material, with_cover_thickness
 from .io import write_table
 
@@ -175,6 +175,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
 
     from ._numerics import check_roller_values
     from .buckets import class_lengths
+    from .rolling import _check_models_on_host
     from .result import RESULTS
 
     material, layer = _split_stack(material, layer)
@@ -184,8 +185,7 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     # the map's points are traced: the plausibility of its concrete inputs is checked here
     check_plausible(where, radius=radius, H=cover_thickness(layer), G0=material.relaxed_modulus(), speed=V)
     check_roller_values(radius, P, V)
-    material.checked(), layer.checked()
-    check_subsonic(material, layer, V)  # (a_T leaves the relaxed modulus, so the shear-wave speed, as it is)
+    _check_models_on_host(material, layer, V)  # (a_T leaves the relaxed modulus, so the shear-wave speeds, as they are)
     _check_cover(material, shift, layer)
     shift.check_temperatures(T)
     # under time-temperature superposition the contact depends on T and V through the reduced
@@ -415,41 +415,34 @@ def _map_program(method, material, shift, layer, R, P, T, V, count, directions, 
     ``checked`` (static): the inputs' rules were checked on the host (:func:`map_points`), so the
     program holds no input checks (no host callback: JAX's persistent compilation cache can keep
     it)."""
-    with input_checks(not checked):
-        return _map_values_and_derivatives(method, material, shift, layer, R, P, T, V, count, directions,
-                                           geometry=geometry, reduced=reduced, adjoint=adjoint)
-
-
-def _map_values_and_derivatives(method, material, shift, layer, R, P, T, V, count, directions, *, geometry,
-                                reduced, adjoint):
-    """The body of :func:`_map_program`."""
     from .materials.material import shift_factor
     from .rolling import _validated
 
-    def values(T, H, mat):
-        mats, lays, ax = _batched_models(mat, shift, with_cover_thickness(layer, H), T)
-        if reduced:  # the reference material at V a_T (see _reduced)
-            res = method.evaluate_points(mat, lays, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
-                                         geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint,
-                                         builder=None if directions else _thickness_builder(method, mat, layer, H,
-                                                                                            geometry))
-        else:
-            res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count,
-                                         adjoint=adjoint)
-        lay_axes = None if ax is None else _batch_axes(lays)
-        res = jax.vmap(lambda r, m, l, p, v: _validated(method, m, l, r, R, p, v, geometry),
-                       in_axes=(0, 0, lay_axes, 0, 0))(res, mats, lays, P, V)
-        return res.value, (res.result, res.contact_radius)
+    with input_checks(not checked):
+        def values(T, H, mat):
+            mats, lays, ax = _batched_models(mat, shift, with_cover_thickness(layer, H), T)
+            if reduced:  # the reference material at V a_T (see _reduced)
+                res = method.evaluate_points(mat, lays, R, P, V * jax.vmap(shift_factor, (None, 0))(shift, T),
+                                             geometry, axes=(None, None, None, 0, 0), count=count, adjoint=adjoint,
+                                             builder=None if directions else _thickness_builder(method, mat, layer, H,
+                                                                                                geometry))
+            else:
+                res = method.evaluate_points(mats, lays, R, P, V, geometry, axes=(0, ax, None, 0, 0), count=count,
+                                             adjoint=adjoint)
+            lay_axes = None if ax is None else _batch_axes(lays)
+            res = jax.vmap(lambda r, m, l, p, v: _validated(method, m, l, r, R, p, v, geometry),
+                           in_axes=(0, 0, lay_axes, 0, 0))(res, mats, lays, P, V)
+            return res.value, (res.result, res.contact_radius)
 
-    H = jnp.asarray(cover_thickness(layer), float)
-    tangents = [(jnp.ones_like(T), jnp.zeros(())), (jnp.zeros_like(T), jnp.ones(()))]
-    if directions:
-        zero = jax.tree_util.tree_map(jnp.zeros_like, material)
-        tangents = [t + (zero,) for t in tangents] + [(jnp.zeros_like(T), jnp.zeros(()), d) for d in directions]
-        primals = (T, H, material)
-    else:  # no material direction: the material is a constant, its derivatives are not formed
-        primals = (T, H)
-        values = functools.partial(values, mat=material)
-    stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *tangents)
-    v, dv, (code, a) = jax.vmap(lambda t: jax.jvp(values, primals, t, has_aux=True))(stacked)
-    return v[0], code[0], dv[0], dv[1], dv[2:], a[0]
+        H = jnp.asarray(cover_thickness(layer), float)
+        tangents = [(jnp.ones_like(T), jnp.zeros(())), (jnp.zeros_like(T), jnp.ones(()))]
+        if directions:
+            zero = jax.tree_util.tree_map(jnp.zeros_like, material)
+            tangents = [t + (zero,) for t in tangents] + [(jnp.zeros_like(T), jnp.zeros(()), d) for d in directions]
+            primals = (T, H, material)
+        else:  # no material direction: the material is a constant, its derivatives are not formed
+            primals = (T, H)
+            values = functools.partial(values, mat=material)
+        stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *tangents)
+        v, dv, (code, a) = jax.vmap(lambda t: jax.jvp(values, primals, t, has_aux=True))(stacked)
+        return v[0], code[0], dv[0], dv[1], dv[2:], a[0]

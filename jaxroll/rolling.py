@@ -57,6 +57,15 @@ def _check_models(material, layer):
         raise ValueError(f"layer must be a jr.Layer (or give a jr.Stack alone); got {type(layer).__name__}")
 
 
+def _check_models_on_host(material, layer, speeds):
+    """The rules of concrete models on the host (``ValueError``): the material's and the layer's
+    parameters (a Stack: every ply's and the base's material too) and the speeds below every
+    shear-wave speed of the layer. After them a program may be traced without its input checks
+    (:func:`jaxroll._numerics.input_checks`): the front doors, the maps, the batched points."""
+    material.checked(), layer.checked()
+    check_subsonic(material, layer, speeds)
+
+
 def _prepare(method, material, layer, radius, loads, speeds, geometry):
     """The method to run (resolved and memory-checked), after the host checks of every concrete
     input; and whether the inputs are traced (then the checks go into the program)."""
@@ -66,8 +75,7 @@ def _prepare(method, material, layer, radius, loads, speeds, geometry):
     check_roller_values(radius, loads, speeds)
     traced = any_traced(material, layer, radius, loads, speeds)
     if not traced:  # concrete values: the rules of jr.Layer and the material, on the host
-        material.checked(), layer.checked()
-        check_subsonic(material, layer, speeds)
+        _check_models_on_host(material, layer, speeds)
         H = layer.H if isinstance(layer, Layer) else [p.H for p in layer.plies]  # a Stack: each ply's thickness
         check_plausible("rolling_resistance", radius=radius, H=H, G0=material.relaxed_modulus(), speed=speeds,
                         stacklevel=4)

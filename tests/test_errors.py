@@ -130,7 +130,8 @@ def test_temperature_rules_are_checked_on_the_host_and_traced_ones_inside():
     with pytest.raises(ValueError, match=r"WLF shift undefined.*got T = 150 K"):
         jr.rolling_resistance(SLS, stack, radius=R, load=20.0, speed=0.01, method="direct", throw=False)
     # a joint fit: the initial law at the DMA temperatures on the host (a fitted C2 is checked inside)
-    dma = jr.DMAData(np.array([1.0, 10.0]), np.array([3e6, 4e6]), np.array([1e5, 2e5]), temperature=np.array([293.15, 250.0]))
+    dma = jr.DMAData(np.array([1.0, 10.0]), np.array([3e6, 4e6]), np.array([1e5, 2e5]),
+                     temperature=np.array([293.15, 250.0]))
     with pytest.raises(ValueError, match=r"WLF shift undefined.*got T = 250 K"):
         jr.fit_material(jr.RollingData(np.array([0.01]), np.array([20.0]), np.array([0.1])), dma,
                         initial=SLS, layer=THIN, radius=R, method="direct", shift=jr.WLF(8.86, 30.0, 293.15))
@@ -308,8 +309,8 @@ def test_a_program_compiled_ahead_with_static_keywords_is_stored_and_loaded(tmp_
     run, _ = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "kw"}, store=True)
     assert _same_bits(run(x * 3.0, f / 2), _scaled_by_keyword(x * 3.0, f / 2, label="kw"))
     assert len(_TRACES) == n  # loaded, not traced (the direct call's program is jit's, traced above)
-    assert float(buckets.compiled(_scaled_by_keyword, (x, f), {"label": "other"}, store=True)[0](x, f)[0]) == pytest.approx(
-        float(jnp.sin(x[0]) * 2.0 + 5.0), rel=1e-15)
+    other, _ = buckets.compiled(_scaled_by_keyword, (x, f), {"label": "other"}, store=True)
+    assert float(other(x, f)[0]) == pytest.approx(float(jnp.sin(x[0]) * 2.0 + 5.0), rel=1e-15)  # len("other") = 5
     assert len(list(tmp_path.glob("_scaled_by_keyword-*.pkl"))) == 2
     # a NumPy scalar is an input of the stored program, as of the function's own (not a constant)
     monkeypatch.setattr(buckets, "_PROGRAMS", {})

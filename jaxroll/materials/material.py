@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._numerics import as_float, check_input, to_complex
+from .._numerics import any_traced, as_float, check_input, to_complex
 
 __all__ = [
     "AbstractMaterial",
@@ -334,7 +334,7 @@ class AtTemperature(AbstractMaterial):
 
     def checked(self):
         out = _checked(self, self._rules)
-        if not any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((self.shift, self.T))):
+        if not any_traced(self.shift, self.T):
             self.shift.check_temperatures(self.T)  # (traced: log_shift checks inside the program)
         return eqx.tree_at(lambda m: m.material, out, self.material.checked())
 
