@@ -139,6 +139,27 @@ def test_temperature_rules_are_checked_on_the_host_and_traced_ones_inside():
         jax.block_until_ready(jax.jit(lambda T: _direct_of(jr.at_temperature(SLS, wlf, T)).value)(150.0))
 
 
+def test_shift_factor_beyond_its_range_is_refused():
+    """A shift factor beyond 1e100 (WLF just above its pole: C2 + T - T_ref = 0.01 K gives
+    log10 a_T = 17.4 * 51.59 / 0.01 ~ 9e4; Arrhenius at 5 K: E_a/(R ln 10) (1/5 - 1/300) ~ 1027
+    decades for 100 kJ/mol) is refused in one line, naming the temperature: before, a_T overflowed
+    to inf and the map or the front door failed on an infinite reduced speed or a NaN contact size.
+    Within the range (Arrhenius at 60 K: 70 decades) the point is computed, and a traced
+    temperature is checked inside the program."""
+    wlf = jr.WLF(17.4, 51.6, 300.0)  # pole at 248.4 K
+    with pytest.raises(ValueError, match=r"^WLF shift factor out of range: \|log10 a_T\| > 100 .*"
+                                         r"got log10 a_T = 8.97\de\+04 at T = 248.41 K$"):
+        jr.resistance_map(SLS.to_prony(), wlf, THIN, radius=R, load=20.0, temperatures=[300.0, 248.41],
+                          speeds=[0.01], method="direct")
+    arr = jr.Arrhenius(1e5, 300.0)
+    expected = 1e5 / 8.314462618 * (1 / 5.0 - 1 / 300.0) / np.log(10.0)  # 1027 decades
+    with pytest.raises(ValueError, match=rf"^Arrhenius shift factor out of range.*log10 a_T = {expected:.4g} at T = 5 K$"):
+        _direct_of(jr.at_temperature(SLS, arr, 5.0))
+    assert float(_direct_of(jr.at_temperature(SLS, arr, 60.0)).value) >= 0  # 70 decades: computed
+    with pytest.raises(jax.errors.JaxRuntimeError, match="Arrhenius shift factor out of range"):
+        jax.block_until_ready(jax.jit(lambda T: _direct_of(jr.at_temperature(SLS, arr, T)).value)(5.0))
+
+
 def _direct_of(material):
     with warnings.catch_warnings():  # (the direct method's validity is not what is checked here)
         warnings.simplefilter("ignore", jr.ValidityWarning)

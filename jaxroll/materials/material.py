@@ -146,6 +146,12 @@ class AbstractShift(eqx.Module):
 
     #: The one-line error where :meth:`undefined` holds.
     UNDEFINED: ClassVar[str] = "shift law undefined at this temperature"
+    #: The largest ``|log10 a_T|`` accepted: a law that shifts the spectrum by more decades is far
+    #: outside any range it was measured over (a WLF just above its pole, an Arrhenius law at a few
+    #: kelvin), and past ~308 decades ``a_T`` overflows float64 (the reduced speeds became ``inf``
+    #: and the model NaN). 100 decades keep every product of ``a_T`` with a time, a speed or a
+    #: frequency (and its square) finite.
+    MAX_DECADES: ClassVar[float] = 100.0
 
     @abc.abstractmethod
     def log_shift(self, T) -> jax.Array:
@@ -168,6 +174,12 @@ class AbstractShift(eqx.Module):
         bad = np.asarray(host.undefined(T))
         if bad.any():
             raise ValueError(f"{self.UNDEFINED}; got T = {T[bad].flat[0]:g} K")
+        with np.errstate(all="ignore"):
+            decades = np.asarray(host.log_shift(T), float) / np.log(10.0)
+        bad = ~(np.abs(decades) <= self.MAX_DECADES)
+        if bad.any():
+            raise ValueError(f"{_out_of_range(self)}; got log10 a_T = {decades[bad].flat[0]:.4g} at "
+                             f"T = {T[bad].flat[0]:g} K")
 
 
 class StandardLinearSolid(AbstractMaterial):
@@ -319,7 +331,15 @@ def shift_factor(shift: AbstractShift, T) -> jax.Array:
     """
     T = as_float(T)
     T = check_input(T, T <= 0, "temperature must be positive, in kelvin")
-    return jnp.exp(shift.log_shift(T))
+    log_a = shift.log_shift(T)
+    log_a = check_input(log_a, ~(jnp.abs(log_a) <= shift.MAX_DECADES * np.log(10.0)), _out_of_range(shift))
+    return jnp.exp(log_a)
+
+
+def _out_of_range(shift: AbstractShift) -> str:
+    """The one-line error of a shift factor beyond ``shift.MAX_DECADES``."""
+    return (f"{type(shift).__name__} shift factor out of range: |log10 a_T| > {shift.MAX_DECADES:g} (the law is "
+            "far outside any measured range at this temperature)")
 
 
 class AtTemperature(AbstractMaterial):
