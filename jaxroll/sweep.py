@@ -121,6 +121,18 @@ def _point_type(names: tuple[str, ...]) -> type:
     return collections.namedtuple("GridPoint", names)
 
 
+def _refuse_nan(leaves, what):
+    """One-line ``ValueError`` where a concrete leaf of ``what`` holds a NaN (``inf`` stays: e.g. a
+    half-space ``H``): inside the swept function it would fail as a runtime error of the compiled
+    program, its reason buried in a callback dump, or give a NaN."""
+    for leaf in leaves:
+        if isinstance(leaf, jax.core.Tracer):
+            continue
+        a = np.asarray(leaf)
+        if np.issubdtype(a.dtype, np.inexact) and np.isnan(a).any():
+            raise ValueError(f"{what} holds a NaN at index {int(np.argwhere(np.isnan(a))[0][0])}")
+
+
 class Grid:
     """Outer product of named 1D axes: the parameter points of a full-factorial sweep.
 
@@ -163,6 +175,7 @@ class Grid:
             (n,) = ns
             if n < 1:
                 raise ValueError(f"grid axis {name!r} is empty")
+            _refuse_nan(leaves, f"grid axis {name!r}")
             if isinstance(axis, (np.ndarray, jax.Array)) and np.ndim(axis) != 1:
                 raise ValueError(
                     f"grid axis {name!r} must be 1D (a pytree for vector-valued entries); got shape {np.shape(axis)}"
@@ -385,6 +398,7 @@ def _prepare(points_or_grid, chunk_size, devices, progress):
         (n,) = lengths
         if n < 1:
             raise ValueError("points is empty")
+        _refuse_nan(leaves, "points")
         out_shape = (n,)
         data = points_or_grid
         grid_key = None

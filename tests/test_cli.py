@@ -101,6 +101,8 @@ def test_fit_from_csv(tmp_path):
     [
         (["curve", "--vmin", "-1"], "must be finite and positive"),
         (["sweep", "--vary", "X=1:2:3"], "unknown parameter 'X'"),
+        # the same axis twice (before: the last one kept, silently)
+        (["sweep", "--vary", "V=1e-3:1:3:log", "--vary", "V=1,2"], "--vary V given more than once"),
         (["fit", "nonexistent.csv"], "need --radius"),
         (["fit"], "give a rolling-resistance CSV"),
         (["curve", "--loads", "a,b"], "comma-separated numbers"),

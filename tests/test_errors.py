@@ -121,8 +121,12 @@ def test_temperature_rules_are_checked_on_the_host_and_traced_ones_inside():
                           temperatures=[-5.0], speeds=[0.01], method="direct")
     assert float(_direct_of(jr.at_temperature(SLS, wlf, 250.0)).value) > 0  # defined: no error
     # the laws' own parameters, at construction (a NaN would reach every shifted modulus)
-    with pytest.raises(ValueError, match=r"WLF.C2 must be a finite number of kelvin; got nan"):
+    with pytest.raises(ValueError, match=r"WLF.C2 must be a positive, finite number of kelvin; got nan"):
         jr.WLF(8.86, float("nan"), 293.15)
+    # C2 <= 0: the pole at or above T_ref (before, accepted, and then every temperature, T_ref's
+    # own included, was refused as "too far below T_ref")
+    with pytest.raises(ValueError, match=r"WLF.C2 must be a positive, finite number of kelvin; got -101.6"):
+        jr.WLF(8.86, -101.6, 293.15)
     with pytest.raises(ValueError, match=r"Arrhenius.T_ref must be a positive, finite temperature in K; got 0"):
         jr.Arrhenius(1e5, 0.0)
     # a Stack's lower ply is checked on the host too (the front door's program holds no checks)

@@ -365,6 +365,13 @@ def test_bad_input_raises():
         jr.Grid({"not a name": np.ones(2)})
     with pytest.raises(ValueError, match="empty"):
         jr.Grid(a=np.ones(0))
+    # a NaN on an axis or in points: one line on the host (before, a callback dump from inside the
+    # swept function's program); inf stays (a half-space H)
+    with pytest.raises(ValueError, match=r"^grid axis 'V' holds a NaN at index 1$"):
+        jr.Grid(V=np.array([0.01, np.nan]), P=np.array([100.0]))
+    with pytest.raises(ValueError, match=r"^points holds a NaN at index 2$"):
+        jr.sweep(lambda p: p, np.array([1.0, 2.0, np.nan]))
+    assert jr.Grid(H=np.array([0.01, np.inf])).shape == (2,)
 
 
 def test_multihost_example_two_processes():

@@ -294,7 +294,8 @@ class WLF(AbstractShift):
 
     def __check_init__(self):
         _require("WLF.C1", self.C1, np.isfinite, "a finite number")
-        _require("WLF.C2", self.C2, np.isfinite, "a finite number of kelvin")
+        # (C2 <= 0 puts the pole at or above T_ref: the law is undefined at its own reference)
+        _require("WLF.C2", self.C2, lambda v: v > 0, "a positive, finite number of kelvin")
         _require("WLF.T_ref", self.T_ref, lambda v: v > 0, "a positive, finite temperature in K")
 
     def undefined(self, T):

@@ -67,6 +67,11 @@ def main(argv=None) -> int:
         parser.error(f"{args.command}: --vmin ({args.vmin:g} m/s) must be below --vmax ({args.vmax:g} m/s)")
     if args.command == "map" and None not in (args.tmin, args.tmax) and not args.tmin < args.tmax:
         parser.error(f"map: --tmin ({args.tmin:g} K) must be below --tmax ({args.tmax:g} K)")
+    if args.command == "sweep":
+        names = [name for name, _ in args.vary]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:  # (a dict of the axes kept only the last)
+            parser.error(f"sweep: --vary {', '.join(twice)} given more than once (one axis per name)")
     import jax
 
     import jaxroll as jr
