@@ -40,7 +40,7 @@ import jax.numpy as jnp
 from . import aperiodic as _aperiodic
 from .. import contact as _contact
 from .._numerics import as_float, to_complex
-from ..grids import FixedGrid, full_model_error, full_model_value, regime
+from ..grids import FixedGrid, full_model_error, full_model_value, loss_beyond_calibration, regime
 from .layer import Layer, is_quasistatic, static_compliance, surface_compliance
 from ..materials.material import complex_modulus
 from ..result import RESULTS, RollingResult, first_failure, full_model_result, merge_results
@@ -183,7 +183,9 @@ def result(s: CylinderSolution, grid: FixedGrid, layer, V, material) -> RollingR
         penetration=s.contact.penetration, pressure=s.contact.pressure, grid=s.x,
         iterations=s.contact.iterations, residual=s.contact.residual,
         error=full_model_error(s.resistance, s.resistance_dissipation, zeta, a / grid.spacing,
-                               "cylinder", s.half_width / a, breadth, a / layer.H),
+                               "cylinder", s.half_width / a, breadth, a / layer.H,
+                               loss_beyond_calibration(material, V, jnp.minimum(s.half_width, a),
+                                                       jnp.maximum(s.half_width, a))),
         value=full_model_value(s.resistance, s.resistance_dissipation, zeta),
     )
 

@@ -61,7 +61,7 @@ from . import aperiodic as _aperiodic
 from .. import contact as _contact
 from .._numerics import as_float, where_safe
 from .contact_size import estimate_contact_size
-from ..grids import FixedGrid, full_model_error, full_model_value, regime
+from ..grids import FixedGrid, full_model_error, full_model_value, loss_beyond_calibration, regime
 from .layer import Layer, halfspace_asymptote, is_quasistatic, static_compliance, surface_compliance
 from ..materials.material import complex_modulus, glassy_modulus
 from ..result import REGIMES, RESULTS, GridSolution, RollingResult, first_failure, full_model_result, merge_results
@@ -321,7 +321,9 @@ def result(s: SphereSolution, grid: FixedGrid, layer, V, material) -> RollingRes
         penetration=s.contact.penetration, pressure=s.contact.pressure, grid=(s.x, s.y),
         iterations=s.contact.iterations, residual=s.contact.residual,
         error=full_model_error(s.resistance, s.resistance_dissipation, zeta, a / grid.spacing,
-                               "sphere", s.contact_radius / a, breadth, a / layer.H),
+                               "sphere", s.contact_radius / a, breadth, a / layer.H,
+                               loss_beyond_calibration(material, V, jnp.minimum(s.contact_radius, a),
+                                                       jnp.maximum(s.contact_radius, a))),
         value=full_model_value(s.resistance, s.resistance_dissipation, zeta),
     )
 
