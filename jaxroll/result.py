@@ -193,7 +193,8 @@ class RollingResult(eqx.Module):
             or of the solved contact [m].
         gamma: ``contact_radius / H`` [-] (0 for a half-space).
         regime: integer code of the pressure model / method, see :data:`REGIMES`.
-        truncation: estimated relative truncation / discretisation error of ``value`` [-].
+        truncation: estimated relative truncation / discretisation error of ``value`` [-] (0 where
+            nothing rolls, ``V = 0`` or an elastic material: the value is round-off of a true 0).
         result: integer :data:`RESULTS` code, ``RESULTS.successful`` (0) when the value is
             trustworthy; otherwise the first reason it is not.
         solution: the grid models' :class:`GridSolution` (pressure, penetration, grid,
@@ -279,7 +280,8 @@ def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipati
       (``truncation_too_large``);
     * the value is positive (``nonpositive``): a rolling roller on a dissipative material has
       ``R_r > 0``. At ``V = 0`` or on an elastic material the true ``R_r`` is 0 and the value
-      (round-off of either sign) is not checked for sign or truncation;
+      (round-off of either sign) is not checked for sign or truncation, and ``truncation`` and
+      ``approximation`` are reported as 0 there;
     * an approximate method's estimated error against the full model, ``approximation`` (where
       the method gives one), is at most ``max_approximation`` (``approximation_error``; not
       checked where nothing rolls, as above).
@@ -302,7 +304,14 @@ def check_validity(res: RollingResult, *, radius, speed, contact_size, dissipati
         (nonpositive, RESULTS.nonpositive),
         (rolling & ~(_approximation(res) <= max_approximation), RESULTS.approximation_error),
     )
-    return eqx.tree_at(lambda r: r.result, res, merge_results(res.result, checks))
+    res = eqx.tree_at(lambda r: r.result, res, merge_results(res.result, checks))
+    # where nothing rolls the relative estimates mean nothing (they read 1e285 or inf on a value
+    # of round-off): reported as 0, the value's error being round-off of a true 0
+    for field in ("truncation", "approximation"):
+        est = getattr(res, field)
+        if est is not None and jnp.broadcast_shapes(jnp.shape(rolling), jnp.shape(est)) == jnp.shape(est):
+            res = eqx.tree_at(lambda r, f=field: getattr(r, f), res, jnp.where(rolling, est, jnp.zeros_like(est)))
+    return res
 
 
 def _approximation(res):

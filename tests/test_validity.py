@@ -184,6 +184,25 @@ def test_forbidden_inputs_raise_under_vmap_and_grad():
         jax.block_until_ready(jax.grad(lambda f: _model({**p, "f": f}, "direct"))(jnp.asarray(-2.0)))
 
 
+def test_error_estimates_are_zero_where_nothing_rolls():
+    """At V = 0 or on an elastic material the true R_r is 0 and the value is round-off: its
+    relative error estimates meant nothing and read 1.3e285 (full model, V = 0) or inf (direct
+    method, f = 0) on a valid result (found by an independent probe). Now 0, still valid; a
+    rolling point keeps its estimates."""
+    layer = jr.Layer(0.03)
+    still = jr.rolling_resistance(jr.StandardLinearSolid(3e6, 0.25, 1.0), layer, radius=0.02, load=100.0, speed=0.0,
+                                  method=jr.Full(grid=jr.AutoGrid(cells_per_radius=6)), throw=False)
+    elastic = jr.rolling_resistance(jr.StandardLinearSolid(3e6, 0.25, 0.0), layer, radius=0.02, load=100.0,
+                                    speed=0.01, method="direct", throw=False)
+    for res in (still, elastic):
+        assert bool(res.valid) and abs(float(res.value)) < 1e-12
+        assert float(res.truncation) == 0.0
+    assert float(elastic.approximation) == 0.0
+    rolling = jr.rolling_resistance(jr.StandardLinearSolid(3e6, 0.25, 1.0), layer, radius=0.02, load=100.0,
+                                    speed=1e-3, method="direct", throw=False)
+    assert float(rolling.truncation) > 0 and float(rolling.approximation) > 0
+
+
 def test_contact_larger_than_0_3_R_is_flagged():
     # regression: a contact radius of 3 R was returned valid by every method
     mat, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(jnp.inf)
