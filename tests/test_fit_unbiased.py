@@ -114,21 +114,20 @@ def _draws(data, seeds):
 
 @pytest.mark.run_bound  # its fits run long: 32 s of CPU without LLVM's passes, 20 s with them
 def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
-    """Reduced copy of the coverage check: 20 points (every third speed) of fit_cylinder.csv,
-    the shipped draw and a fresh one, started near the truth (the two fits, and their
-    re-resolved grids of the same class, share one compiled model; the far start is the slow
-    test's); each ends on the grid the rule gives at its own result. 6 intervals at 95 %, but not 6
-    independent trials: a draw's three intervals miss together (the G0-tau-f valley: 6 of the 7
-    missing cylinder draws of benchmarks/LOG.md missed all three), so ``hits >= 5`` fails where a
-    draw misses (one stray interval passes), which honest intervals do with probability about
-    1 - 0.95^2 = 0.10. The draws are
-    seeded, so this is a regression check on these two draws, not a test of the coverage (the slow
-    ``test_interval_coverage`` is). Three fits (a second fresh draw) took 114-130 s of the default
-    suite's ~600 s on 2 cores (clean-clone CI runs, 2026-11-29); 15 points, every fourth speed,
-    gave 6 of 9 (too few speeds across the peak for linearised intervals)."""
+    """Reduced copy of the coverage check: 20 points (every third speed) of fit_cylinder.csv, the
+    shipped draw, started near the truth (the far start and the fresh draws are the slow
+    ``test_interval_coverage``'s); it ends on the grid the rule gives at its own result. 3
+    intervals at 95 %, but not 3 independent trials: a draw's three intervals miss together (the
+    G0-tau-f valley: 6 of the 7 missing cylinder draws of benchmarks/LOG.md missed all three), so
+    ``hits >= 2`` fails where the draw misses (one stray interval passes), which honest intervals
+    do with probability about 0.05. The draw is seeded, so this is a regression check on it, not a
+    test of the coverage. With a fresh draw as well it took 114-130 s of the default suite's
+    600-675 s on 2 cores (clean-clone CI runs, 2026-11-29, a busy machine); three fits before that;
+    15 points, every fourth speed, gave 6 of 9 (too few speeds across the peak for linearised
+    intervals)."""
     data = _subset(read_rolling_csv(jr.datasets.path("fit_cylinder.csv")), 3)
     near = jr.StandardLinearSolid(G0=2.7e6, tau=0.27, f=0.9)
-    fits = [_fit(d, "cylinder", near) for d in [data, *_draws(data, range(1))]]
+    fits = [_fit(data, "cylinder", near)]
     assert all(f.converged for f in fits)
     for f in fits:  # each ends on the grid the rule gives at its own result (resolved by the fit itself)
         assert isinstance(f.method.grid, jr.FixedGrid)
@@ -136,7 +135,7 @@ def test_cylinder_fit_from_finer_exact_data_covers_the_truth_reduced():
         assert max(own.spacing / f.method.grid.spacing, f.method.grid.spacing / own.spacing) <= REGRID_FACTOR
         assert len(f.starts) <= 1 + MAX_REFITS
     hits = sum(_covered(f) for f in fits)
-    assert hits >= 5, [(f.params, f.ci95) for f in fits]
+    assert hits >= 2, [(f.params, f.ci95) for f in fits]
 
 
 def test_profile_endpoints_match_the_exact_likelihood_ratio_interval():
