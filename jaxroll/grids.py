@@ -873,6 +873,7 @@ def loss_beyond_calibration(material, V, r_lo, r_hi) -> jax.Array:
     G = material.complex_modulus(omega)
     return moving & jnp.any(jnp.imag(G) > CALIBRATED_TAN_DELTA * jnp.real(G), axis=-1)
 
+
 #: Largest cells per radius the sphere rule asks for (the cost grows like its fourth power or
 #: faster; at zeta <= 3e-3 even 64 cells leave ~1 %).
 MAX_SPHERE_RULE_CELLS = 48

@@ -686,7 +686,9 @@ def approximation_error(material, layer, V, value, r_c, gamma, run, modulus):
     * the stationary pressure (:func:`stationary_pressure_error`): the rolling pressure is not the
       elastic one where the material stiffens across the contact's frequencies;
     * on a layer with inertia, :func:`inertia_error` at the dynamic contact size;
-    * a margin :data:`DIRECT_MARGIN` for the rest.
+    * a margin :data:`DIRECT_MARGIN` for the rest;
+    * ``inf`` where the loss factor over the contact's frequencies exceeds the calibration's
+      (:func:`jaxroll.grids.loss_beyond_calibration`).
 
     Calibrated on the full 3D model with its default grid (``benchmarks/approx_validity.py
     errors``: standard linear solids G0 = 3 MPa, tau = 0.25 s, f = 0.1..10 on a half-space and
@@ -711,7 +713,6 @@ def approximation_error(material, layer, V, value, r_c, gamma, run, modulus):
     # estimate said 10 / 3.8 %): not valid
     outside = loss_beyond_calibration(material, V, jnp.minimum(r_c, r_dyn), jnp.maximum(r_c, r_dyn))
     return jnp.where(outside, jnp.inf, estimate)
-
 
 
 #: Exponent ``m`` of the line load ``(1 - (y/r)^2)^m`` carried by the plane ``y`` under each
