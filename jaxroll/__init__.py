@@ -10,6 +10,11 @@ compilation cache in the user's cache directory, ``~/.cache/jaxroll/jax`` (envir
 the cache on some x86 processors. Level 3 hides XLA's other C++ errors too (JAX itself sets level
 1), also in the subprocesses that inherit the environment; ``TF_CPP_MIN_LOG_LEVEL=1`` or ``0``
 before ``import jaxroll`` keeps them.
+
+It also sets SciPy's bundled OpenBLAS, under JAX's CPU LAPACK kernels, to one thread
+(``jaxroll._threads``: its threads spin-wait on jaxroll's small matrices; two processes on 2 cores
+ran a fit 35x slower each). ``JAXROLL_LAPACK_THREADS=off`` (or a count), or an
+``OPENBLAS_NUM_THREADS`` of the user's, keeps the user's setting.
 """
 
 import os as _os
@@ -26,6 +31,10 @@ from . import _numerics  # noqa: F401  (enables float64 first)
 from . import _compilation_cache
 
 _compilation_cache.enable()
+
+from . import _threads
+
+_threads.limit_when_loaded()  # one thread for SciPy's OpenBLAS, once it loads: see jaxroll._threads
 
 # --- materials (G*(omega)) and the layer ---------------------------------------------------
 from .materials.material import (
