@@ -24,6 +24,7 @@ outside the physical range of rolling problems (:data:`PLAUSIBLE`: likely unit s
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import contextvars
 import warnings
 
@@ -34,7 +35,7 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["any_traced", "as_float", "check_input", "check_plausible", "check_x64", "input_checks", "newton_root", "NewtonInfo",
+__all__ = ["any_traced", "as_float", "check_input", "check_parameter_shapes", "check_plausible", "check_x64", "input_checks", "newton_root", "NewtonInfo",
            "PLAUSIBLE", "PlausibilityWarning", "roller_inputs",
            "to_complex", "where_safe"]
 
@@ -136,6 +137,34 @@ def check_roller_values(radius, load, speed) -> None:
             raise ValueError(f"{name} {sym} [{unit}] must be {rule}; got {_describe(v[bad] if v.ndim else v)}")
 
 
+def check_parameter_shapes(model, name: str) -> None:
+    """``ValueError`` naming the parameter (``material.G0``, ``layer.plies[1].H``) where an array
+    field of ``model`` (a material, shift, layer or stack: any :class:`equinox.Module`, walked
+    field by field) has the wrong number of dimensions: scalars everywhere except the fields a
+    class lists in its ``_vectors`` (e.g. a Prony series' ``G`` and ``tau``, 1D). Shapes are
+    static, so the check holds for traced values too (a user's ``jax.vmap`` hands each lane its
+    scalars); batches of materials go through ``jax.vmap``, not through array parameters."""
+    if isinstance(model, (tuple, list)):
+        for i, m in enumerate(model):
+            check_parameter_shapes(m, f"{name}[{i}]")
+        return
+    if not isinstance(model, eqx.Module):
+        return
+    vectors = getattr(type(model), "_vectors", ())
+    for field in dataclasses.fields(model):
+        if field.metadata.get("static", False):
+            continue
+        value = getattr(model, field.name)
+        if isinstance(value, (eqx.Module, tuple, list)):
+            check_parameter_shapes(value, f"{name}.{field.name}")
+        elif hasattr(value, "shape") or isinstance(value, (int, float)):
+            ndim, want = np.ndim(value), 1 if field.name in vectors else 0
+            if ndim != want:
+                kind = "a 1D array" if want else "a scalar (sweep materials and layers with jax.vmap)"
+                raise ValueError(f"{name}.{field.name} ({type(model).__name__}) must be {kind}; "
+                                 f"got shape {np.shape(value)}")
+
+
 class PlausibilityWarning(UserWarning):
     """An input is allowed but far outside the physical range of rolling-resistance problems,
     most likely a unit slip (mm for m, MPa for Pa, mm/s for m/s): jaxroll works in SI units."""
@@ -178,13 +207,17 @@ def roller_inputs(radius, load, speed):
     scalars, checked once for every method: ``ValueError`` for non-scalars (use ``jax.vmap``
     for sweeps), and :func:`check_input` (works under jit/vmap/grad) for ``R <= 0``, ``P <= 0``,
     ``V < 0``, infinities or NaN (concrete values: :func:`check_roller_values` on the host)."""
-    out = []
-    for (name, sym, unit, test, rule), x in zip(_ROLLER_RULES, (radius, load, speed)):
-        v = as_float(x)
-        if v.shape != ():
-            raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {v.shape}")
-        out.append(check_input(v, ~test(v), f"{name} {sym} [{unit}] must be {rule}"))
-    return tuple(out)
+    check_roller_shapes(radius, load, speed)
+    return tuple(check_input(v, ~test(v), f"{name} {sym} [{unit}] must be {rule}")
+                 for (name, sym, unit, test, rule), v in zip(_ROLLER_RULES, map(as_float, (radius, load, speed))))
+
+
+def check_roller_shapes(radius, load, speed) -> None:
+    """``ValueError`` for a radius, load or speed that is not a scalar (use ``jax.vmap`` for
+    sweeps); shapes are static, so this holds for traced values too."""
+    for (name, *_), x in zip(_ROLLER_RULES, (radius, load, speed)):
+        if np.shape(x) != ():
+            raise ValueError(f"{name} must be a scalar (use jax.vmap for sweeps); got shape {np.shape(x)}")
 
 
 class NewtonInfo(eqx.Module):

@@ -127,6 +127,9 @@ def resistance_map(material, shift, layer, *, radius, load, temperatures, speeds
     """
     T = np.asarray(temperatures, float)
     V = np.asarray(speeds, float)
+    if T.ndim != 1 or V.ndim != 1 or T.size == 0 or V.size == 0:
+        raise ValueError(f"temperatures and speeds must be non-empty 1D arrays (the map's axes); got shapes {T.shape} "
+                         f"and {V.shape}")
     Tp, Vp = (a.ravel() for a in np.meshgrid(T, V, indexing="ij"))
     out = map_points(material, shift, layer, radius=radius, loads=np.full(Tp.shape, float(load)), temperatures=Tp,
                      speeds=Vp, geometry=geometry, method=method, measured_temperatures=measured_temperatures,
@@ -173,12 +176,14 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     :func:`resistance_map` (points outside are ``RESULTS.outside_measured_range``)."""
     import time
 
-    from ._numerics import check_roller_values
+    from ._numerics import check_parameter_shapes, check_roller_shapes, check_roller_values
     from .buckets import class_lengths
     from .rolling import _check_models_on_host
     from .result import RESULTS
 
     material, layer = _split_stack(material, layer)
+    check_parameter_shapes(material, "material"), check_parameter_shapes(layer, "layer")
+    check_roller_shapes(radius, 1.0, 0.0)
     T, V, P = (np.asarray(x, float).ravel() for x in (temperatures, speeds, loads))
     if not T.shape == V.shape == P.shape:
         raise ValueError(f"temperatures, speeds and loads must have one length; got {T.size}, {V.size}, {P.size}")
@@ -252,7 +257,8 @@ def _bucket_program(method, idx, Vr, P, T, V, material, shift, layer, radius, di
     compiles nothing)."""
     from .buckets import compiled, padded
 
-    idx = idx[np.lexsort((P[idx], np.round(np.log(Vr[idx]), 12)))]
+    with np.errstate(divide="ignore"):  # V = 0 (a static point) sorts first, at log 0 = -inf
+        idx = idx[np.lexsort((P[idx], np.round(np.log(Vr[idx]), 12)))]
     pad, count = padded(idx, length)
     args = (method.dynamic(), material, shift, layer, as_float(radius), jnp.asarray(P[pad]),
             jnp.asarray(T[pad]), jnp.asarray(V[pad]), jnp.asarray(count), directions)

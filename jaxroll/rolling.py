@@ -30,7 +30,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _compilation_cache
-from ._numerics import any_traced, as_float, check_plausible, check_roller_values, input_checks, roller_inputs
+from ._numerics import (any_traced, as_float, check_parameter_shapes, check_plausible, check_roller_shapes,
+                        check_roller_values, input_checks, roller_inputs)
 from .engines.layer import Layer, check_subsonic
 from .engines.stack import Stack, models
 from .materials.material import AbstractMaterial
@@ -55,6 +56,7 @@ def _check_models(material, layer):
                          f"jr.materials.AtTemperature, ...); got {type(material).__name__}")
     if not isinstance(layer, (Layer, Stack)):
         raise ValueError(f"layer must be a jr.Layer (or give a jr.Stack alone); got {type(layer).__name__}")
+    check_parameter_shapes(material, "material"), check_parameter_shapes(layer, "layer")
 
 
 def _check_models_on_host(material, layer, speeds):
@@ -190,6 +192,7 @@ def rolling_resistance(material, layer=None, *, radius, load, speed, geometry="s
     ``jax.grad`` with respect to the material and layer parameters, ``R``, ``P`` and ``V``.
     """
     material, layer = models(material, layer)
+    check_roller_shapes(radius, load, speed)  # (before an AutoGrid is resolved from them)
     method, traced = _prepare(method, material, layer, radius, load, speed, geometry)
     radius, load, speed = as_float(radius), as_float(load), as_float(speed)
     res = _compilation_cache.call(_point, method.dynamic(), material, layer, radius, load, speed, geometry, traced)

@@ -105,6 +105,45 @@ def test_concrete_inputs_are_checked_on_the_host():
         jr.rolling_resistance(SLS, flat, radius=R, load=20.0, speed=0.01, method="direct")
 
 
+@pytest.mark.parametrize("method", [None, "direct"])
+def test_wrongly_shaped_parameters_are_refused_in_one_line_before_compiling(method):
+    """A parameter of the wrong shape names itself (found by an independent probe: before, a
+    5-line while_loop type error from the default method's grid resolution, or "axis -1 is out
+    of bounds" for a Prony series of scalars). Batches go through jax.vmap."""
+    layer, kw = jr.Layer(0.03), dict(radius=R, load=100.0, speed=0.03, method=method)
+    cases = [
+        (dict(material=jr.StandardLinearSolid(jnp.array([3e6, 4e6]), 0.25, 1.0)), r"material\.G0 \(StandardLinearSolid\) must be a scalar"),
+        (dict(layer=jr.Layer(jnp.array([0.03, 0.02]))), r"layer\.H \(Layer\) must be a scalar"),
+        (dict(material=jr.GeneralizedMaxwell(1e6, 2e6, 0.1)), r"material\.G \(GeneralizedMaxwell\) must be a 1D array; got shape \(\)"),
+        (dict(material=jr.at_temperature(SLS, jr.WLF(8.86, 101.6, 300.0), jnp.array([290.0, 300.0]))),
+         r"material\.T \(AtTemperature\) must be a scalar"),
+        (dict(radius=jnp.array([0.02, 0.03])), r"^radius must be a scalar"),
+    ]
+    for change, match in cases:
+        args = {"material": SLS, "layer": layer, **kw, **change}
+        with pytest.raises(ValueError, match=match) as info:
+            jr.rolling_resistance(args.pop("material"), args.pop("layer"), **args)
+        assert "\n" not in str(info.value)
+    with pytest.raises(ValueError, match=r"material\.G0 \(StandardLinearSolid\) must be a scalar"):
+        jr.rolling_resistance_grid(cases[0][0]["material"], layer, radius=R, loads=[100.0], speeds=[0.03], method=method)
+    shift, axes = jr.WLF(8.86, 101.6, 300.0), dict(speeds=[1e-3, 1e-2], temperatures=[300.0, 310.0])
+    with pytest.raises(ValueError, match=r"material\.G0 \(StandardLinearSolid\) must be a scalar"):
+        jr.resistance_map(cases[0][0]["material"], shift, layer, radius=R, load=100.0, method=method, **axes)
+    with pytest.raises(ValueError, match=r"^radius must be a scalar"):
+        jr.resistance_map(SLS, shift, layer, radius=jnp.array([0.02, 0.03]), load=100.0, method=method, **axes)
+    with pytest.raises(ValueError, match=r"temperatures and speeds must be non-empty 1D arrays .* got shapes \(\) and \(2,\)"):
+        jr.resistance_map(SLS, shift, layer, radius=R, load=100.0, method=method, speeds=[1e-3, 1e-2], temperatures=300.0)
+
+
+def test_a_map_with_a_static_column_warns_nothing_and_is_zero_there():
+    """Speed 0 in a map (a static point: no dissipation) ran into a NumPy divide-by-zero warning
+    while the points were ordered by log(V a_T) (found by an independent probe; the suite turns
+    warnings into errors). Oracle: nothing rolls, R_r = 0 exactly."""
+    out = jr.resistance_map(SLS, jr.WLF(8.86, 101.6, 300.0), jr.Layer(0.03), radius=R, load=100.0,
+                            speeds=[0.0, 1e-2], temperatures=[300.0, 310.0], method="direct")
+    assert np.all(out.valid[:, 0]) and np.all(out.value[:, 0] == 0.0) and np.all(out.value[:, 1] > 0.0)
+
+
 def test_temperature_rules_are_checked_on_the_host_and_traced_ones_inside():
     """The shift law's rules (T > 0; WLF defined: C2 + T - T_ref > 0) on concrete temperatures
     raise a one-line ValueError on the host, from the front doors and the map (whose programs
@@ -536,6 +575,47 @@ def test_import_before_jax_quiets_xla_log_only_with_the_cache_on():
     assert level("jax") == "1"  # JAX was first: its own default
     assert level("jaxroll", JAXROLL_COMPILATION_CACHE="0") == "1"
     assert level("jaxroll", TF_CPP_MIN_LOG_LEVEL="0") == "0"
+
+
+def test_lapack_threads_follow_the_environment():
+    """SciPy's OpenBLAS thread count that jaxroll sets (jaxroll._threads): one by default, a
+    user's OPENBLAS_NUM_THREADS wins, JAXROLL_LAPACK_THREADS sets or leaves it, and a bad value
+    is one line."""
+    from jaxroll import _threads
+
+    assert _threads.requested_threads({}) == 1
+    assert _threads.requested_threads({"OPENBLAS_NUM_THREADS": "4"}) is None
+    assert _threads.requested_threads({"JAXROLL_LAPACK_THREADS": "3", "OPENBLAS_NUM_THREADS": "4"}) == 3
+    assert all(_threads.requested_threads({"JAXROLL_LAPACK_THREADS": off}) is None for off in ("0", "off", "default"))
+    with pytest.raises(ValueError, match="^JAXROLL_LAPACK_THREADS must be a positive thread count"):
+        _threads.requested_threads({"JAXROLL_LAPACK_THREADS": "two"})
+
+
+@pytest.mark.parametrize("order", ["jaxroll first", "scipy first"])
+def test_scipys_openblas_runs_one_thread_and_numpys_is_left_alone(order):
+    """Two processes on 2 cores each running a fit with OpenBLAS's default threads took 605 s
+    each instead of 17 s (spinning threads; jaxroll._threads). After ``import jaxroll`` SciPy's
+    OpenBLAS (under JAX's LAPACK kernels) runs one thread, whether SciPy loads before jaxroll or
+    after it (then through the import hook); NumPy's OpenBLAS keeps the count it has without
+    jaxroll. Oracle: threadpoolctl's view of the loaded libraries, in a fresh interpreter."""
+    first = "import jaxroll, scipy.linalg" if order == "jaxroll first" else "import scipy.linalg, jaxroll"
+    code = ("import json, sys\nif sys.argv[1] == 'with':\n    " + first + "\nelse:\n    import scipy.linalg\n"
+            "from threadpoolctl import threadpool_info\n"
+            "print(json.dumps({'scipy.libs' in i['filepath'] or '/scipy/' in i['filepath']: i['num_threads'] "
+            "for i in threadpool_info() if i['internal_api'] == 'openblas'}))")
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "JAXROLL_LAPACK_THREADS")}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+
+    def threads(arg):
+        out = subprocess.run([sys.executable, "-c", code, arg], env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    with_jaxroll, without = threads("with"), threads("without")
+    if "true" not in with_jaxroll:
+        pytest.skip("SciPy links a shared BLAS here (no OpenBLAS inside its folders): nothing to set")
+    assert with_jaxroll["true"] == 1
+    assert with_jaxroll.get("false") == without.get("false")  # NumPy's: as without jaxroll
 
 
 # ------------------------------------------------------------------ memory budget

@@ -248,6 +248,7 @@ class GeneralizedMaxwell(AbstractMaterial):
     G: jax.Array = eqx.field(converter=_leaf)
     tau: jax.Array = eqx.field(converter=_leaf)
 
+    _vectors: ClassVar[tuple] = ("G", "tau")  # 1D (check_parameter_shapes); every other field a scalar
     _rules: ClassVar[tuple] = (("G_inf", lambda v: v > 0, "a positive, finite shear modulus in Pa"),
                                ("G", lambda v: v >= 0, "finite, non-negative moduli in Pa"),
                                ("tau", lambda v: v > 0, "positive, finite times in s"))
