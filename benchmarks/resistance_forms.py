@@ -147,7 +147,7 @@ def _default_point(g, tag, z, P, d):
 
     m, V = MATERIALS[tag], speed_of(g, z, P)
     a_rel = float(jr.engines.contact_size.estimate_contact_size(m, HALF, 0.02, P, g))
-    cells, r = jr.AutoGrid().point_cells(m, HALF, 0.02, [P], [V], g)
+    cells, r, _ = jr.AutoGrid().point_cells(m, HALF, 0.02, [P], [V], g)
     c, r = int(cells[0]), float(r[0])
     zeta, breadth = (float(x) for x in grids.regime(m, V, r))
     coarser = [k for k in d if k <= c * a_rel / r * (1 + 1e-9)]

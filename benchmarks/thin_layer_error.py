@@ -191,7 +191,7 @@ def analyse_rows(paths, validation=False):
         V = d[cs[-1]][5]
         size = float(grids.counting_size(m, layer, radius, load, V, g))
         zeta, breadth = (float(x) for x in grids.regime(m, V, size))
-        cells, _ = jr.AutoGrid().point_cells(m, layer, radius, [load], [V], g)
+        cells, _, _ = jr.AutoGrid().point_cells(m, layer, radius, [load], [V], g)
         c = int(cells[0])
         default = None
         if c in d:

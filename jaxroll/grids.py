@@ -387,25 +387,25 @@ class AutoGrid(eqx.Module):
         :func:`sphere_cells_per_radius`; ``"static"`` (the static pressure of
         :class:`~jaxroll.DirectElastic`): :data:`SPHERE_CELLS_PER_RADIUS`."""
         loads, speeds = _envelope(loads, speeds)
-        r, V = _rule_sizes(material, layer, radius, loads, speeds, "sphere", model == "full")
+        r, w, V = _rule_sizes(material, layer, radius, loads, speeds, "sphere", model == "full")
         H = float(np.asarray(layer.H))
         cpr = self.cells_per_radius
         if cpr is None and model == "full":
             cpr = int(_regime_cells(material, layer, V, r, "sphere").max())
         elif cpr is None:
             cpr = max(SPHERE_CELLS_PER_RADIUS, _cells(2.0 * r.max() / H) if math.isfinite(H) else 0)
-        return self._sphere_grid(r, cpr, float(speeds.max()), material)
+        return self._sphere_grid(r, w, cpr, float(speeds.max()), material)
 
-    def _sphere_grid(self, r, cpr, speed_max, material) -> FixedGrid:
+    def _sphere_grid(self, r, w, cpr, speed_max, material) -> FixedGrid:
         """The 3D grid of ``cpr`` cells per smallest radius of ``r`` [m], its window covering the
-        largest, the automatic period long enough for ``speed_max`` [m/s]."""
+        largest window size of ``w`` [m], the automatic period long enough for ``speed_max`` [m/s]."""
         dx = float(r.min()) / cpr
-        window = 2 * _cells((self.window_radii or SPHERE_WINDOW_RADII) * r.max() / dx) + 1
+        window = 2 * _cells((self.window_radii or SPHERE_WINDOW_RADII) * w.max() / dx) + 1
         period = self.period
         if isinstance(period, str):
             memory = speed_max * _longest_time(material)
-            Nx = min(_next_pow2(max(self.period_factor * max(r.max(), memory) / dx, window)), MAX_SPHERE_CELLS)
-            Ny = min(_next_pow2(max(self.period_factor * r.max() / dx, window)), MAX_SPHERE_CELLS)
+            Nx = min(_next_pow2(max(self.period_factor * max(w.max(), memory) / dx, window)), MAX_SPHERE_CELLS)
+            Ny = min(_next_pow2(max(self.period_factor * w.max() / dx, window)), MAX_SPHERE_CELLS)
             period = (Nx * dx, Ny * dx)
         return FixedGrid(dx, window, period=period, n_terms=self.n_terms)
 
@@ -420,7 +420,7 @@ class AutoGrid(eqx.Module):
         a0 = np.sqrt(loads * float(radius) / (np.pi * G0))  # relaxed Hertz half-width (E* = 4 G0)
         H = float(np.asarray(layer.H))
         cpr = self.cells_per_radius
-        a, V = _rule_sizes(material, layer, radius, loads, speeds, "cylinder", model == "full")
+        a, w, V = _rule_sizes(material, layer, radius, loads, speeds, "cylinder", model == "full")
         if cpr is None and model == "full":
             cpr = int(_regime_cells(material, layer, V, a, "cylinder").max())
         elif cpr is None:
@@ -428,36 +428,37 @@ class AutoGrid(eqx.Module):
             cpr = max(line_cells_per_radius(float(z)) for z in np.ravel(zeta))
             if math.isfinite(H):
                 cpr = max(cpr, _cells(2.0 * a.max() / H))
-        return self._line_grid(a, cpr, float(speeds.max()), material)
+        return self._line_grid(a, w, cpr, float(speeds.max()), material)
 
-    def _line_grid(self, a, cpr, speed_max, material) -> FixedGrid:
+    def _line_grid(self, a, w, cpr, speed_max, material) -> FixedGrid:
         """The line grid of ``cpr`` cells per smallest half-width of ``a`` [m], its window
-        covering the largest, the automatic period long enough for ``speed_max`` [m/s]."""
+        covering the largest window size of ``w`` [m], the automatic period long enough for
+        ``speed_max`` [m/s]."""
         dx = float(a.min()) / cpr
-        window = 2 * _cells((self.window_radii or LINE_WINDOW_RADII) * a.max() / dx)
+        window = 2 * _cells((self.window_radii or LINE_WINDOW_RADII) * w.max() / dx)
         period = self.period
         if isinstance(period, str):
-            L_need = self.period_factor * max(4.0 * a.max(), speed_max * _longest_time(material))
+            L_need = self.period_factor * max(4.0 * w.max(), speed_max * _longest_time(material))
             period = min(_next_pow2(max(L_need / dx, 2 * window)), MAX_LINE_CELLS) * dx
         return FixedGrid(dx, window, period=period)
 
     # ---- per-regime buckets -----------------------------------------------------------------------
 
     def point_cells(self, material, layer, radius, loads, speeds, geometry) -> tuple:
-        """``(cells, sizes)``: for each point ``(loads[i], speeds[i])`` (concrete arrays of one
+        """``(cells, sizes, window sizes)``: for each point ``(loads[i], speeds[i])`` (concrete arrays of one
         length) the cells per counting contact radius (sphere) or half-width (cylinder) that
         the full model's rule asks for at that point alone (what :meth:`sphere` / :meth:`line`
         with ``model="full"`` give for ``loads=[P_i], speeds=[V_i]``: by the regime, at least
         ``2 r/H`` on a finite layer; ``cells_per_radius`` where given), and that size [m] as
-        the rules round it (:func:`counting_size` on the ladder :data:`SIZE_LADDER`). Host NumPy
-        arrays."""
+        the rules round it (:func:`counting_size` on the ladder :data:`SIZE_LADDER`), with the
+        size its window covers (:func:`_grid_sizes`). Host NumPy arrays."""
         loads = np.atleast_1d(np.asarray(loads, float)).ravel()
         speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), loads.shape)
         _envelope(loads, speeds)
-        r = _grid_sizes(material, layer, radius, loads, speeds, geometry)
+        r, w = _grid_sizes(material, layer, radius, loads, speeds, geometry)
         if self.cells_per_radius is not None:
-            return np.full(r.shape, self.cells_per_radius), r
-        return _regime_cells(material, layer, speeds, r, geometry), r
+            return np.full(r.shape, self.cells_per_radius), r, w
+        return _regime_cells(material, layer, speeds, r, geometry), r, w
 
     def buckets(self, material, layer, radius, loads, speeds, geometry) -> list:
         """The points ``(loads[i], speeds[i])`` grouped by the grid the full model's rule asks
@@ -467,13 +468,13 @@ class AutoGrid(eqx.Module):
         batch solved per bucket gives the per-point numbers. Buckets of one class share the
         window (static) and differ only in the cell size (a traced value), hence one compiled
         program per class; a temperature x speed map at one load has one bucket per class."""
-        cells, r = self.point_cells(material, layer, radius, loads, speeds, geometry)
+        cells, r, w = self.point_cells(material, layer, radius, loads, speeds, geometry)
         speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), r.shape)
         build = self._sphere_grid if geometry == "sphere" else self._line_grid
         out = []
         for c, size in sorted(set(zip(cells.tolist(), r.tolist()))):
             idx = np.flatnonzero((cells == c) & (r == size))
-            out.append((build(r[idx], int(c), float(speeds[idx].max()), material), idx))
+            out.append((build(r[idx], w[idx], int(c), float(speeds[idx].max()), material), idx))
         return out
 
 
@@ -1023,6 +1024,17 @@ CALIBRATED_CONTACT_RATIO = 0.48
 #: 0.93..1.04 over the shipped measured material's map and SLS f = 3, 30 at zeta = 10..1000
 #: (``benchmarks/dynamic_contact.py --quick``).
 DYNAMIC_CONTACT_RATIO = 0.8
+#: The same bound per geometry where the loss factor over the contact's frequencies exceeds
+#: :data:`CALIBRATED_TAN_DELTA` (:func:`loss_beyond_calibration`: loss-dominated materials, SLS
+#: f > ~11). Solved / dynamic size near the R_r peak (5 kN/m cylinder, 100 N sphere, R = 2 cm,
+#: 30 mm layer and half-space, 3 mm/s-1 m/s; benchmarks/LOG.md 2026-11-29, "loss-dominated
+#: contacts"): cylinder 0.68 (f = 30), 0.61 (f = 100), 0.55 (f = 1000); sphere 0.81, 0.78, 0.70.
+#: With 0.8 the default cylinder at f = 1000 and 30 mm/s counted its cells on 3x its solved
+#: half-width (4 cells on it) and stopped at max_steps_reached: the cylinder counts on 0.5. The
+#: sphere keeps 0.8 (its contacts down to 0.70 of the dynamic size are covered by
+#: :func:`full_model_error`'s contact shortfall, which reads the tables at the cells on the solved
+#: contact); counted on a smaller size its finer grids at f = 100 fail to converge near the peak.
+LOSS_DOMINATED_CONTACT_RATIO = {"sphere": 0.8, "cylinder": 0.5}
 
 
 def counting_size(material, layer, radius, load, speed, geometry="sphere"):
@@ -1035,12 +1047,26 @@ def counting_size(material, layer, radius, load, speed, geometry="sphere"):
     relaxed size of a calibration point with the same solved contact:
     ``min(a_rel, q a_dyn / rho)``, ``rho`` = :data:`CALIBRATED_CONTACT_RATIO` (the calibration
     holds down to solved/a_rel = rho) and ``q`` = :data:`DYNAMIC_CONTACT_RATIO` (the solved
-    contact is at least ``q a_dyn``), so that the solved contact is at least ``rho`` times the
+    contact is at least ``q a_dyn``; :data:`LOSS_DOMINATED_CONTACT_RATIO` where
+    :func:`loss_beyond_calibration` holds over ``V/a_rel .. 10 V/a_dyn``), so that the solved contact is at least ``rho`` times the
     counting size. Equal to ``a_rel`` wherever the dynamic estimate is above ``rho/q`` of it
     (e.g. a standard linear solid with ``f <= 3``). Jittable."""
+    return _counting_and_window_sizes(material, layer, radius, load, speed, geometry)[0]
+
+
+def _counting_and_window_sizes(material, layer, radius, load, speed, geometry):
+    """:func:`counting_size` and the size [m] the window covers :data:`SPHERE_WINDOW_RADII` /
+    :data:`LINE_WINDOW_RADII` of: the counting size with ``q`` = :data:`DYNAMIC_CONTACT_RATIO`
+    everywhere. Where the material is loss-dominated the cells are counted on the smaller size
+    (:data:`LOSS_DOMINATED_CONTACT_RATIO`) and the window keeps its width in metres: with both
+    on the smaller size the default cylinder at f = 1000 (5 kN/m, 0.1-0.3 m/s) reached the
+    window's edge."""
     a_rel = estimate_contact_size(material, layer, radius, load, geometry)
     a_dyn = dynamic_contact_size(material, layer, radius, load, speed, geometry)
-    return jnp.minimum(a_rel, DYNAMIC_CONTACT_RATIO * a_dyn / CALIBRATED_CONTACT_RATIO)
+    q = jnp.where(loss_beyond_calibration(material, speed, a_dyn, a_rel), LOSS_DOMINATED_CONTACT_RATIO[geometry],
+                  DYNAMIC_CONTACT_RATIO)
+    return (jnp.minimum(a_rel, q * a_dyn / CALIBRATED_CONTACT_RATIO),
+            jnp.minimum(a_rel, DYNAMIC_CONTACT_RATIO * a_dyn / CALIBRATED_CONTACT_RATIO))
 
 
 #: Measured bias of the smoothed contact edge against the exact discrete contact on the default
@@ -1093,8 +1119,18 @@ def full_model_error(moment, dissipation, zeta, cells, geometry, contact_ratio=1
     # with the truth between M and D, the value D + w (M - D)/2 is within (1 - w/2) of their gap
     gap_share = jnp.where(bracketing, 1.0 - 0.5 * _blend_weight(zeta), 1.0)
     table = dissipation_error(zeta, cells, geometry, breadth, thickness_ratio)
+    gap_share = jnp.where(loss_dominated, LOSS_GAP_SAFETY[geometry] * gap_share, gap_share)
     est = jnp.maximum(ERROR_SAFETY * table, jnp.where(use_gap, gap_share * gap, 0.0))
     return jax.lax.stop_gradient(est)
+
+
+#: Factor on the moment-dissipation gap per geometry where the loss factor exceeds the tables'
+#: (:func:`loss_beyond_calibration`). The cylinder's gap is not a bracket there: the default
+#: cylinder at f = 1000 (5 kN/m, R = 2 cm, 30 mm layer, 30 mm/s) lay 3.42 % above the grid with
+#: twice its cells (whose own estimate is 0.42 %) against a gap of 2.93 %. The sphere's is: f =
+#: 100 and 1000 at 10 mm/s, +1.31 % and +2.78 % from 32 cells per radius against gaps of 1.81 %
+#: and 4.28 % (benchmarks/LOG.md 2026-11-29, "loss-dominated contacts").
+LOSS_GAP_SAFETY = {"sphere": 1.0, "cylinder": 1.5}
 
 
 #: The cells per estimated contact size the full models' rule chooses from, and its cap:
@@ -1214,30 +1250,34 @@ def _sizes(material, layer, radius, loads, geometry):
 
 @eqx.filter_jit
 def _counting_table(material, layer, radius, loads, speeds, geometry):
-    return jax.vmap(lambda P, V: counting_size(material, layer, radius, P, V, geometry))(loads, speeds)
+    return jax.vmap(lambda P, V: _counting_and_window_sizes(material, layer, radius, P, V, geometry))(loads, speeds)
 
 
 def _grid_sizes(material, layer, radius, loads, speeds, geometry):
-    """The sizes [m] the full models' grid rules count cells on at the points ``(loads[i],
-    speeds[i])`` (host NumPy): :func:`counting_size`, rounded down onto :data:`SIZE_LADDER`
-    below the relaxed size (:func:`_quantised`), so that the points of a map share a few sizes."""
+    """``(counting, window)``: the sizes [m] the full models' grid rules count cells on at the
+    points ``(loads[i], speeds[i])`` and those their windows cover (host NumPy):
+    :func:`counting_size` and the window's size (:func:`_counting_and_window_sizes`), rounded
+    down onto :data:`SIZE_LADDER` below the relaxed size (:func:`_quantised`), so that the
+    points of a map share a few sizes."""
     loads = np.atleast_1d(np.asarray(loads, float)).ravel()
     speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), loads.shape)
-    r = np.asarray(_compilation_cache.call(_counting_table, material, layer, as_float(radius),
-                                           jnp.asarray(loads), jnp.asarray(speeds), geometry))
-    if not np.all(np.isfinite(r) & (r > 0)):
+    r, w = (np.asarray(x) for x in _compilation_cache.call(_counting_table, material, layer, as_float(radius),
+                                                         jnp.asarray(loads), jnp.asarray(speeds), geometry))
+    if not np.all(np.isfinite(r) & (r > 0) & np.isfinite(w)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
-    return _quantised(r, _sizes(material, layer, radius, loads, geometry))
+    relaxed = _sizes(material, layer, radius, loads, geometry)
+    return _quantised(r, relaxed), _quantised(w, relaxed)
 
 
 def _rule_sizes(material, layer, radius, loads, speeds, geometry, full):
-    """``(sizes, their speeds)`` an envelope's rule reads: for a full model the counting size
-    (:func:`_grid_sizes`) of every load x speed pair, with the pairs' speeds; otherwise the
-    relaxed size of every load, and ``None``."""
+    """``(sizes, window sizes, their speeds)`` an envelope's rule reads: for a full model the
+    counting and window sizes (:func:`_grid_sizes`) of every load x speed pair, with the pairs'
+    speeds; otherwise the relaxed size of every load (twice), and ``None``."""
     if not full:
-        return _sizes(material, layer, radius, loads, geometry), None
+        r = _sizes(material, layer, radius, loads, geometry)
+        return r, r, None
     P, V = (x.ravel() for x in np.meshgrid(loads, speeds, indexing="ij"))
-    return _grid_sizes(material, layer, radius, P, V, geometry), V
+    return (*_grid_sizes(material, layer, radius, P, V, geometry), V)
 
 
 def _longest_time(material) -> float:
