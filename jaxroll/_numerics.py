@@ -24,8 +24,8 @@ outside the physical range of rolling problems (:data:`PLAUSIBLE`: likely unit s
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import contextvars
+import dataclasses
 import warnings
 
 import equinox as eqx
@@ -35,7 +35,8 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-__all__ = ["any_traced", "as_float", "check_input", "check_parameter_shapes", "check_plausible", "check_x64", "input_checks", "newton_root", "NewtonInfo",
+__all__ = ["any_traced", "as_float", "check_input", "check_parameter_shapes", "check_plausible", "check_x64",
+           "input_checks", "newton_root", "NewtonInfo",
            "PLAUSIBLE", "PlausibilityWarning", "roller_inputs",
            "to_complex", "where_safe"]
 

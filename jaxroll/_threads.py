@@ -12,8 +12,9 @@ concurrent processes; with this module's limit, 11.9 s / 16.6 s alone and 17-19 
 So jaxroll sets SciPy's OpenBLAS to :data:`DEFAULT_THREADS` thread (through threadpoolctl):
 at import where SciPy's LAPACK is loaded already, else right after it loads (a one-shot import
 hook for ``scipy.linalg.cython_lapack``, the module JAX loads it through: ``import jaxroll``
-itself does not load SciPy, 0.27 s, which a process running stored programs never needs), unless ``JAXROLL_LAPACK_THREADS`` says otherwise (a count, or ``0``/``off``: leave
-it alone) or ``OPENBLAS_NUM_THREADS`` is set (the user chose). NumPy's own OpenBLAS (``np.dot``
+itself does not load SciPy, 0.27 s, which a process running stored programs never needs),
+unless ``JAXROLL_LAPACK_THREADS`` says otherwise (a count, or ``0``/``off``: leave it alone) or
+``OPENBLAS_NUM_THREADS`` is set (the user chose). NumPy's own OpenBLAS (``np.dot``
 on large arrays) is not touched. Where SciPy links a shared BLAS (a conda or system install: no
 library inside SciPy's folders) nothing is changed either.
 """

@@ -445,8 +445,8 @@ class AutoGrid(eqx.Module):
     # ---- per-regime buckets -----------------------------------------------------------------------
 
     def point_cells(self, material, layer, radius, loads, speeds, geometry) -> tuple:
-        """``(cells, sizes, window sizes)``: for each point ``(loads[i], speeds[i])`` (concrete arrays of one
-        length) the cells per counting contact radius (sphere) or half-width (cylinder) that
+        """``(cells, sizes, window sizes)``: for each point ``(loads[i], speeds[i])`` (concrete
+        arrays of one length) the cells per counting contact radius (sphere) or half-width (cylinder) that
         the full model's rule asks for at that point alone (what :meth:`sphere` / :meth:`line`
         with ``model="full"`` give for ``loads=[P_i], speeds=[V_i]``: by the regime, at least
         ``2 r/H`` on a finite layer; ``cells_per_radius`` where given), and that size [m] as
@@ -1048,9 +1048,9 @@ def counting_size(material, layer, radius, load, speed, geometry="sphere"):
     ``min(a_rel, q a_dyn / rho)``, ``rho`` = :data:`CALIBRATED_CONTACT_RATIO` (the calibration
     holds down to solved/a_rel = rho) and ``q`` = :data:`DYNAMIC_CONTACT_RATIO` (the solved
     contact is at least ``q a_dyn``; :data:`LOSS_DOMINATED_CONTACT_RATIO` where
-    :func:`loss_beyond_calibration` holds over ``V/a_rel .. 10 V/a_dyn``), so that the solved contact is at least ``rho`` times the
-    counting size. Equal to ``a_rel`` wherever the dynamic estimate is above ``rho/q`` of it
-    (e.g. a standard linear solid with ``f <= 3``). Jittable."""
+    :func:`loss_beyond_calibration` holds over ``V/a_rel .. 10 V/a_dyn``), so that the solved
+    contact is at least ``rho`` times the counting size. Equal to ``a_rel`` wherever the dynamic
+    estimate is above ``rho/q`` of it (e.g. a standard linear solid with ``f <= 3``). Jittable."""
     return _counting_and_window_sizes(material, layer, radius, load, speed, geometry)[0]
 
 
@@ -1089,6 +1089,15 @@ def edge_smoothing_error(kappa, extrapolated, model) -> float:
     return ERROR_SAFETY * envelope
 
 
+#: Factor on the moment-dissipation gap per geometry where the loss factor exceeds the tables'
+#: (:func:`loss_beyond_calibration`). The cylinder's gap is not a bracket there: the default
+#: cylinder at f = 1000 (5 kN/m, R = 2 cm, 30 mm layer, 30 mm/s) lay 3.42 % above the grid with
+#: twice its cells (whose own estimate is 0.42 %) against a gap of 2.93 %. The sphere's is: f =
+#: 100 and 1000 at 10 mm/s, +1.31 % and +2.78 % from 32 cells per radius against gaps of 1.81 %
+#: and 4.28 % (benchmarks/LOG.md 2026-11-29, "loss-dominated contacts").
+LOSS_GAP_SAFETY = {"sphere": 1.0, "cylinder": 1.5}
+
+
 def full_model_error(moment, dissipation, zeta, cells, geometry, contact_ratio=1.0, breadth=0.0,
                      thickness_ratio=0.0, loss_dominated=False) -> jax.Array:
     """The error estimate (``RollingResult.truncation``, relative) of a full model's reported
@@ -1116,21 +1125,14 @@ def full_model_error(moment, dissipation, zeta, cells, geometry, contact_ratio=1
     bracketing = zeta < BRACKETING_ZETA
     use_gap = (bracketing | (cells < cols[0]) | (shortfall < 1.0) | (thickness_ratio > THIN_RATIOS[geometry][-1])
                | loss_dominated)
-    # with the truth between M and D, the value D + w (M - D)/2 is within (1 - w/2) of their gap
-    gap_share = jnp.where(bracketing, 1.0 - 0.5 * _blend_weight(zeta), 1.0)
+    # with the truth between M and D, the value D + w (M - D)/2 is within (1 - w/2) of their gap;
+    # a loss-dominated contact's gap is no bracket (LOSS_GAP_SAFETY)
+    gap_share = (jnp.where(bracketing, 1.0 - 0.5 * _blend_weight(zeta), 1.0)
+                 * jnp.where(loss_dominated, LOSS_GAP_SAFETY[geometry], 1.0))
     table = dissipation_error(zeta, cells, geometry, breadth, thickness_ratio)
-    gap_share = jnp.where(loss_dominated, LOSS_GAP_SAFETY[geometry] * gap_share, gap_share)
     est = jnp.maximum(ERROR_SAFETY * table, jnp.where(use_gap, gap_share * gap, 0.0))
     return jax.lax.stop_gradient(est)
 
-
-#: Factor on the moment-dissipation gap per geometry where the loss factor exceeds the tables'
-#: (:func:`loss_beyond_calibration`). The cylinder's gap is not a bracket there: the default
-#: cylinder at f = 1000 (5 kN/m, R = 2 cm, 30 mm layer, 30 mm/s) lay 3.42 % above the grid with
-#: twice its cells (whose own estimate is 0.42 %) against a gap of 2.93 %. The sphere's is: f =
-#: 100 and 1000 at 10 mm/s, +1.31 % and +2.78 % from 32 cells per radius against gaps of 1.81 %
-#: and 4.28 % (benchmarks/LOG.md 2026-11-29, "loss-dominated contacts").
-LOSS_GAP_SAFETY = {"sphere": 1.0, "cylinder": 1.5}
 
 
 #: The cells per estimated contact size the full models' rule chooses from, and its cap:

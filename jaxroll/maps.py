@@ -176,13 +176,13 @@ def map_points(material, shift, layer, *, radius, loads, temperatures, speeds, g
     :func:`resistance_map` (points outside are ``RESULTS.outside_measured_range``)."""
     import time
 
-    from ._numerics import check_parameter_shapes, check_roller_shapes, check_roller_values
+    from ._numerics import check_roller_shapes, check_roller_values
     from .buckets import class_lengths
-    from .rolling import _check_models_on_host
+    from .rolling import _check_models, _check_models_on_host
     from .result import RESULTS
 
     material, layer = _split_stack(material, layer)
-    check_parameter_shapes(material, "material"), check_parameter_shapes(layer, "layer")
+    _check_models(material, layer)  # (types and parameter shapes, before anything is sized or traced)
     check_roller_shapes(radius, 1.0, 0.0)
     T, V, P = (np.asarray(x, float).ravel() for x in (temperatures, speeds, loads))
     if not T.shape == V.shape == P.shape:

@@ -112,9 +112,11 @@ def test_wrongly_shaped_parameters_are_refused_in_one_line_before_compiling(meth
     of bounds" for a Prony series of scalars). Batches go through jax.vmap."""
     layer, kw = jr.Layer(0.03), dict(radius=R, load=100.0, speed=0.03, method=method)
     cases = [
-        (dict(material=jr.StandardLinearSolid(jnp.array([3e6, 4e6]), 0.25, 1.0)), r"material\.G0 \(StandardLinearSolid\) must be a scalar"),
+        (dict(material=jr.StandardLinearSolid(jnp.array([3e6, 4e6]), 0.25, 1.0)),
+         r"material\.G0 \(StandardLinearSolid\) must be a scalar"),
         (dict(layer=jr.Layer(jnp.array([0.03, 0.02]))), r"layer\.H \(Layer\) must be a scalar"),
-        (dict(material=jr.GeneralizedMaxwell(1e6, 2e6, 0.1)), r"material\.G \(GeneralizedMaxwell\) must be a 1D array; got shape \(\)"),
+        (dict(material=jr.GeneralizedMaxwell(1e6, 2e6, 0.1)),
+         r"material\.G \(GeneralizedMaxwell\) must be a 1D array; got shape \(\)"),
         (dict(material=jr.at_temperature(SLS, jr.WLF(8.86, 101.6, 300.0), jnp.array([290.0, 300.0]))),
          r"material\.T \(AtTemperature\) must be a scalar"),
         (dict(radius=jnp.array([0.02, 0.03])), r"^radius must be a scalar"),
@@ -125,14 +127,16 @@ def test_wrongly_shaped_parameters_are_refused_in_one_line_before_compiling(meth
             jr.rolling_resistance(args.pop("material"), args.pop("layer"), **args)
         assert "\n" not in str(info.value)
     with pytest.raises(ValueError, match=r"material\.G0 \(StandardLinearSolid\) must be a scalar"):
-        jr.rolling_resistance_grid(cases[0][0]["material"], layer, radius=R, loads=[100.0], speeds=[0.03], method=method)
+        jr.rolling_resistance_grid(cases[0][0]["material"], layer, radius=R, loads=[100.0], speeds=[0.03],
+                                   method=method)
     shift, axes = jr.WLF(8.86, 101.6, 300.0), dict(speeds=[1e-3, 1e-2], temperatures=[300.0, 310.0])
     with pytest.raises(ValueError, match=r"material\.G0 \(StandardLinearSolid\) must be a scalar"):
         jr.resistance_map(cases[0][0]["material"], shift, layer, radius=R, load=100.0, method=method, **axes)
     with pytest.raises(ValueError, match=r"^radius must be a scalar"):
         jr.resistance_map(SLS, shift, layer, radius=jnp.array([0.02, 0.03]), load=100.0, method=method, **axes)
-    with pytest.raises(ValueError, match=r"temperatures and speeds must be non-empty 1D arrays .* got shapes \(\) and \(2,\)"):
-        jr.resistance_map(SLS, shift, layer, radius=R, load=100.0, method=method, speeds=[1e-3, 1e-2], temperatures=300.0)
+    with pytest.raises(ValueError, match=r"temperatures and speeds must be non-empty 1D arrays .* \(\) and \(2,\)"):
+        jr.resistance_map(SLS, shift, layer, radius=R, load=100.0, method=method, speeds=[1e-3, 1e-2],
+                          temperatures=300.0)
 
 
 def test_a_map_with_a_static_column_warns_nothing_and_is_zero_there():

@@ -181,7 +181,8 @@ def test_loss_dominated_cylinder_converges_and_refines(f, H, V):
     default = jr.Full().resolve(mat, layer, radius=R, loads=[5e3], speeds=[V], geometry="cylinder")
     g = default.grid
     finer = jr.Full(grid=jr.FixedGrid(float(g.spacing) / 2, 2 * g.window, period=g.period))
-    out = {name: jr.rolling_resistance(mat, layer, method=m, **kw) for name, m in (("default", default), ("finer", finer))}
+    out = {name: jr.rolling_resistance(mat, layer, method=m, **kw)
+           for name, m in (("default", default), ("finer", finer))}
     codes = {name: jr.RESULTS.names[int(r.result)] for name, r in out.items()}
     assert codes == {"default": "successful", "finer": "successful"}, codes
     d, fi = out["default"], out["finer"]
