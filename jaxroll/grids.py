@@ -301,11 +301,14 @@ class FixedGrid(eqx.Module):
         jax 0.9.2 CPU (peak resident memory above the process baseline, the compiled program's
         temporary buffers): ~100 B per 3D Fourier mode and 64 B per period cell, plus the contact
         solver's Krylov basis (``restart + 1`` window vectors of the largest basis its default GMRES
-        builds, twice for the adjoint solve)."""
+        builds, twice for the adjoint solve), and in 3D the preconditioner's symbol
+        (:func:`jaxroll.engines.sphere3d._with_symbol`: four images of ``T_1 S`` and two complex
+        multipliers on the ``~2W x W`` half-spectrum of the embedding, ~128 B per window cell)."""
         from .contact.linear import FALLBACK_RESTART, RESTART_PLAIN, RESTART_PRECONDITIONED
 
         restart = max(RESTART_PRECONDITIONED, FALLBACK_RESTART) if ndim == 2 else RESTART_PLAIN
-        return self._kernel_memory(ndim) + 16 * (restart + 1) * self.window ** ndim
+        symbol = 128 * self.window ** 2 if ndim == 2 else 0
+        return self._kernel_memory(ndim) + 16 * (restart + 1) * self.window ** ndim + symbol
 
     def _kernel_memory(self, ndim) -> int:
         """The compliance kernel's share of :meth:`memory_estimate` [bytes]."""

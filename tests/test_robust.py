@@ -29,13 +29,14 @@ TERMS = 4
 SOLVER_FAILURES = ("max_steps_reached", "linear_solve_failed", "window_too_small", "nonfinite")
 
 
-def _draws(n, seed):
-    """``n`` seeded draws ``(material, layer, speed, label)`` over the envelope (module docstring)."""
+def _draws(n, seed, f_range=(0.2, 5.0), zeta_range=(1e-2, 1e2)):
+    """``n`` seeded draws ``(material, layer, speed, label)`` over the envelope (module docstring;
+    ``f`` and ``zeta`` log-uniform in the given ranges)."""
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(n):
-        zeta = 10 ** rng.uniform(-2, 2)
-        f = 10 ** rng.uniform(np.log10(0.2), np.log10(5.0))
+        zeta = 10 ** rng.uniform(*np.log10(zeta_range))
+        f = 10 ** rng.uniform(*np.log10(f_range))
         t_max = 10 ** rng.uniform(-2, 0)
         if rng.uniform() < 0.5:  # SLS: one term carries everything
             G, tau = np.r_[f * G_INF, np.zeros(TERMS - 1)], np.full(TERMS, t_max)
@@ -55,17 +56,18 @@ def _solve(cells_per_radius, material, layer, speed):
     with warnings.catch_warnings():  # a flagged result is inspected below, not warned about
         warnings.simplefilter("ignore", jr.ValidityWarning)
         res = jr.rolling_resistance(material, layer, radius=R, load=P, speed=speed, method=method, throw=False)
-    return float(res.value), jr.RESULTS.names[int(res.result)], float(res.solution.residual)
+    return float(res.value), jr.RESULTS.names[int(res.result)], float(res.solution.residual), float(res.truncation)
 
 
 def _table(cprs, draws):
-    """``{(cells, label): (value, code, residual)}``, resolution by resolution (one program each)."""
+    """``{(cells, label): (value, code, residual, truncation)}``, resolution by resolution (one
+    program each)."""
     return {(c, label): _solve(c, m, lay, V) for c in cprs for (m, lay, V, label) in draws}
 
 
 def _check(table, cprs, draws, tolerances):
     """Every solve converged; ``|R(c)/R(finest) - 1| <= tolerances[c]`` for the coarser ones."""
-    for (c, label), (value, code, residual) in table.items():
+    for (c, label), (value, code, residual, _) in table.items():
         assert code not in SOLVER_FAILURES, (c, label, code)
         assert residual <= 1e-7, (c, label, residual)  # the solver's bound: 1e3 tol (tol = 1e-10)
         assert np.isfinite(value) and value > 0, (c, label, value)
@@ -121,6 +123,58 @@ def test_fine_grid_gradient_and_batching():
     np.testing.assert_allclose(batched, eager, rtol=1e-8)
 
 
+def _check_bounded(table, cprs, draws):
+    """Every solve converged (as :func:`_check`), and each coarser resolution lies within the sum of
+    its own and the finest resolution's ``truncation`` from the finest: the library's error
+    estimate bounds the change the refinement makes."""
+    _check(table, cprs, draws, {c: np.inf for c in cprs[:-1]})
+    finest = cprs[-1]
+    for *_, label in draws:
+        ref, ref_t = table[(finest, label)][0], table[(finest, label)][3]
+        for c in cprs[:-1]:
+            value, t = table[(c, label)][0], table[(c, label)][3]
+            assert abs(value / ref - 1) <= t + ref_t, (label, c, value / ref - 1, t, ref_t)
+
+
+@pytest.mark.parametrize(("f", "V", "cells"), [(1000.0, 0.1, 24), (100.0, 0.03, 32)])
+def test_fine_sphere_grid_converges_on_loss_dominated_material(f, V, cells):
+    """Finer explicit grids on a loss-dominated SLS (30 mm layer, near the R_r peak): with the
+    preconditioner built from the embedded window coefficients, GMRES(96) stagnated at a relative
+    residual of ~3e-5 (f = 1000, 0.1 m/s, 24 cells per radius: linear_solve_failed, 10.301 N;
+    f = 100, 30 mm/s, 32 cells: max_steps_reached after 230 s). With the layer's symbol
+    (:attr:`jaxroll.contact.WindowedCompliance.symbol`) both converge; an independent check of the
+    first, GMRES(400) with the old preconditioner, converged to 10.29958093 N, the value the new
+    solve gives to 10 digits (benchmarks/LOG.md). Asserted: converged to the solver's bound, and
+    within the sum of the two truncations of the default grid's value (a coarser, independent
+    solve)."""
+    mat, layer = jr.StandardLinearSolid(G_INF, 0.25, f), jr.Layer(0.03)
+    out = {}
+    for c in (None, cells):
+        method = jr.Full() if c is None else jr.Full(grid=jr.AutoGrid(cells_per_radius=c))
+        res = jr.rolling_resistance(mat, layer, radius=R, load=P, speed=V, method=method, throw=False)
+        out[c] = (float(res.value), float(res.truncation), jr.RESULTS.names[int(res.result)],
+                  float(res.solution.residual))
+    (v, t, code, _), (vf, tf, code_f, residual_f) = out[None], out[cells]
+    assert (code, code_f) == ("successful", "successful"), out
+    assert residual_f <= 1e-7, out  # the solver's bound: 1e3 tol (tol = 1e-10)
+    assert abs(v / vf - 1) <= t + tf, out
+
+
+def test_loss_dominated_draws_converge_reduced():
+    """Loss-dominated draws (``f`` 30..1000, ``zeta`` 0.1..10 around the R_r peak; SLS or Prony,
+    half-space or layer) at 12 and 24 cells per radius: every solve converges, and the two lie
+    within the sum of their truncations (the error estimate bounds the refinement's change)."""
+    cprs, draws = [12, 24], _draws(3, seed=31, f_range=(30.0, 1000.0), zeta_range=(0.1, 10.0))
+    _check_bounded(_table(cprs, draws), cprs, draws)
+
+
+@pytest.mark.slow
+def test_loss_dominated_draws_converge():
+    """As :func:`test_loss_dominated_draws_converge_reduced`, 8..48 cells per radius and 12 draws."""
+    cprs, draws = [8, 12, 16, 24, 32, 48], _draws(12, seed=3127, f_range=(30.0, 1000.0), zeta_range=(0.1, 10.0))
+    _check_bounded(_table(cprs, draws), cprs, draws)
+
+
 @pytest.mark.parametrize("f", [100.0, pytest.param(1000.0, marks=pytest.mark.slow)])
 def test_loss_dominated_material_converges_near_the_peak_and_refines(f):
     """A loss-dominated standard linear solid (f = 100 / 1000: tan delta up to 5.0 / 15.8, as
@@ -153,7 +207,8 @@ def test_loss_dominated_truncation_takes_the_gap():
         gap = abs(float(res.solution.resistance_moment) / float(res.value) - 1)
         assert bool(jr.grids.loss_beyond_calibration(jr.StandardLinearSolid(G_INF, 0.25, f), 0.01, 4e-3, 5e-3)) == beyond
         if beyond:
-            assert float(res.truncation) >= gap > 0.02, (float(res.truncation), gap)
+            # the truncation is this gap where it takes it, formed in the program: equal to rounding
+            assert float(res.truncation) >= gap * (1 - 1e-12) and gap > 0.02, (float(res.truncation), gap)
         else:
             assert float(res.truncation) < 0.01
 

@@ -193,11 +193,18 @@ class WindowedCompliance(eqx.Module):
         offsets: the coefficients, shape ``(2 W_1 - 1, ..., 2 W_d - 1)``, offset ``0`` at the
             centre index ``W_k - 1`` (e.g. [m/Pa] for a compliance).
         shape: static window shape ``(W_1, ..., W_d)``.
+        symbol: ``None``, or the ``rfftn``-layout Fourier multiplier of the layer's compliance
+            on the embedding's own period (:attr:`embedding` cells per axis, the alias sum (1)
+            of the layer's ``T S`` on that period): a circulant approximation of this operator
+            without the truncation at the window's offsets, which the preconditioner inverts
+            instead of :attr:`multiplier` (:mod:`jaxroll.contact.precondition`). Not used to
+            apply the operator.
     """
 
     multiplier: jax.Array
     offsets: jax.Array
     shape: tuple = eqx.field(static=True)
+    symbol: jax.Array | None = None
 
     @property
     def ndim(self) -> int:
@@ -217,6 +224,11 @@ class WindowedCompliance(eqx.Module):
         """The zero-offset coefficient (a cell centre's displacement per unit pressure on that
         cell [m/Pa])."""
         return self.offsets[tuple(w - 1 for w in self.shape)]
+
+    def with_symbol(self, symbol) -> "WindowedCompliance":
+        """This operator with :attr:`symbol` set (the same operator; only its preconditioner
+        changes)."""
+        return WindowedCompliance(self.multiplier, self.offsets, self.shape, symbol)
 
     def dense(self):
         """The dense ``(W, W)`` matrix ``C[i, j] = offsets[i - j]`` of a 1D operator."""

@@ -195,7 +195,7 @@ def kernel_builder(material, layer, grid: FixedGrid, n_terms=None):
         def build(V):
             K, K2 = sphere_kernel(material, layer, V, n_cells, period, terms)
             return _contact.periodic_window_kernel(K, K2, n_cells, period, window)
-    return build
+    return _with_symbol(build, material, layer, grid)
 
 
 def _infinite_layer_factor(layer, grid):
@@ -226,7 +226,39 @@ def _infinite_kernel_builder(material, layer, grid: FixedGrid):
 
             A, B = _aperiodic.surface_factor_pair(t, dx, W, imag_second=True)
             return _aperiodic.surface_window_kernel(A, B, None, dx, W)
-    return build
+    return _with_symbol(build, material, layer, grid)
+
+
+#: Wavenumber cut-off of the preconditioner's alias sum (:func:`_with_symbol`), in cell
+#: wavenumbers ``2 pi/dx``: the modes ``|m| < 2 E`` per axis (the load patch's first side lobe
+#: each way). The symbol only has to be close to the operator.
+SYMBOL_CUTOFF = 2
+
+
+def _with_symbol(build, material, layer, grid: FixedGrid):
+    """``build`` (``V -> WindowKernel``) with the compliance's preconditioner symbol
+    (:attr:`jaxroll.contact.WindowedCompliance.symbol`): the alias sum of the layer's ``T S`` on
+    the circulant embedding's period, ``E dx`` per axis (``E`` = the embedding's FFT size). The
+    preconditioner then inverts the layer's own compliance instead of the embedded window
+    coefficients, whose truncation at the window's offsets cuts a loss-dominated material's creep
+    trail and leaves the embedding's multiplier with near-zero and negative-real modes
+    (:mod:`jaxroll.contact.precondition`). For a quasi-static layer (``T = T_1/G*``) the
+    speed-independent factor is formed here, once; other layers keep the embedding's inverse."""
+    if not is_quasistatic(layer):
+        return build
+    E = _contact.embedding_size(grid.window)
+    L = E * grid.spacing
+    qx, qy, S = _mode_grid((E, E), (L, L), (SYMBOL_CUTOFF * E - 1,) * 2)
+    # T_1 S with the y images summed (G* depends on q_x only): (E, E//2 + 1, x images)
+    factor = jnp.sum(_radial(lambda q: static_compliance(layer, q))(qx, qy) * S, axis=3)
+    qx = qx[:, 0, :, 0]
+
+    def with_symbol(V):
+        kernel = build(V)
+        inv_g = 1.0 / jnp.conj(complex_modulus(material, qx * V))
+        symbol = jnp.einsum("rsa,ra->rs", factor.astype(inv_g.dtype), inv_g)
+        return _contact.WindowKernel(kernel.compliance.with_symbol(symbol), kernel.dissipation)
+    return with_symbol
 
 
 # ---------------------------------------------------------------------------------------------
