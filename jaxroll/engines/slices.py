@@ -562,12 +562,13 @@ def solve(material, layer: Layer, R, P, V, grid: FixedGrid, *, algorithm="SP", n
 SPEED_WEIGHT, LOAD_WEIGHT, SLICE_MARGIN = 0.8, 1.0, 0.03
 
 
-def approximation_parts(s: SliceSolution, material, layer, R, P, V, n_slices):
-    """``(plane_strain, load)``: the two error sources of :func:`approximation_error` [-]."""
+def approximation_parts(s: SliceSolution, material, layer, R, P, V, n_slices, size=None):
+    """``(plane_strain, load)``: the two error sources of :func:`approximation_error` [-];
+    ``size``: the stationary contact radius [m] if the caller has it (else estimated here)."""
     # the same contact at low speed: a standard linear solid with the modulus of the rolling
     # frequency (the dynamic contact radius) at V tau/r = 1e-3, where every material's loss is
     # linear in the frequency, so the ratio depends on the shapes only
-    r = estimate_contact_size(material, layer, R, P, "sphere")
+    r = estimate_contact_size(material, layer, R, P, "sphere") if size is None else size
     G = storage_modulus(material, V / r)
     slow = StandardLinearSolid(G, 1.0, 0.1)
     now = plane_strain_ratio(material, layer, R, P, V, n_slices)
@@ -604,13 +605,13 @@ def approximation_error(s: SliceSolution, material, layer, R, P, V, n_slices):
     H = 0.2 m..2 mm, R = 2 cm, 30 and 100 N, and the shipped measured Prony material at
     -25..75 degC, V = 1e-4..10 m/s). Not differentiated: it decides validity only.
     """
-    plane_strain, load = jax.lax.stop_gradient(approximation_parts(s, material, layer, R, P, V, n_slices))
+    r = jax.lax.stop_gradient(estimate_contact_size(material, layer, R, P, "sphere"))
+    plane_strain, load = jax.lax.stop_gradient(approximation_parts(s, material, layer, R, P, V, n_slices, size=r))
     estimate = jnp.abs(SPEED_WEIGHT * plane_strain + LOAD_WEIGHT * load) + SLICE_MARGIN
     # beyond the calibration's loss factor over the frequencies of the stationary contact size (the
     # direct method's rule): not valid. SLS G0 = 2.89 MPa, tau = 14.9 ms, f = 33.8 on a 7 mm layer
     # (R = 2 cm, 17.5 N): SP +16.3 % at 2.47 m/s where the estimate said 6.6 %, PD +12.6 % at 1 m/s
     # where it said 3.6 % (benchmarks/LOG.md, 2026-11-29)
-    r = jax.lax.stop_gradient(estimate_contact_size(material, layer, R, P, "sphere"))
     return jnp.where(loss_beyond_calibration(material, V, r, r), jnp.inf, estimate)
 
 
