@@ -1,7 +1,7 @@
 """Loss-dominated materials (SLS f = 30..1000, tan delta up to 15.8) against the full model.
 
     python benchmarks/loss_dominated.py fine
-    python benchmarks/loss_dominated.py approx [--seed 77] [--cases 8]
+    python benchmarks/loss_dominated.py approx [--seed 77] [--cases 8] [--start 0]
 
 ``fine``: the default full 3D model against ``AutoGrid(cells_per_radius=24 | 32)`` (SLS G0 = 3
 MPa, tau = 0.25 s, f = 100, 1000; R = 2 cm, 100 N; 30 mm layer and half-space; 10-300 mm/s): the
@@ -71,7 +71,7 @@ def fine():
     print(f"worst |difference| / (sum of the truncations): {worst:.2f}")
 
 
-def approx(seed, n_cases):
+def approx(seed, n_cases, start=0):
     rng = np.random.default_rng(seed)
     totals = {k: [0, 0] for k in METHODS}
     for case in range(n_cases):
@@ -82,6 +82,8 @@ def approx(seed, n_cases):
         r = float(estimate_contact_size(mat, jr.Layer(np.inf), R, loads[-1]))
         H = np.inf if rng.uniform() < 0.25 else r * 10 ** rng.uniform(np.log10(0.3), 2)
         layer = jr.Layer(H)
+        if case < start:  # drawn (the same cases for every start), not run
+            continue
         t = time.perf_counter()
         full = _grid(mat, layer, jr.Full(), speeds, loads, R)
         ref_ok = np.asarray(full.valid)
@@ -106,11 +108,12 @@ def main(argv=None):
     a = sub.add_parser("approx")
     a.add_argument("--seed", type=int, default=77)
     a.add_argument("--cases", type=int, default=8)
+    a.add_argument("--start", type=int, default=0, help="run cases start..cases-1 only (the same draws)")
     args = ap.parse_args(argv)
     if args.command == "fine":
         fine()
     else:
-        approx(args.seed, args.cases)
+        approx(args.seed, args.cases, args.start)
 
 
 if __name__ == "__main__":

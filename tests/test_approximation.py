@@ -100,6 +100,25 @@ def test_direct_beyond_its_calibrated_loss_factor_is_flagged(modulus, fs):
         assert abs(err[0]) <= SLACK + float(full[0].truncation), (f, err)  # measured -4.1 / -4.4 %
 
 
+def test_direct_above_the_peak_of_a_loss_dominated_material_is_flagged():
+    """SLS f = 146 (tan delta up to 6.0) on a 346 mm layer, R = 2 cm, 104 N, at 6.13 m/s, above the
+    R_r peak: tan delta is 1.4 at the contact's frequency and 6.0 a decade lower, where the wake's
+    long waves carry part of the loss. The direct method with the dynamic contact was valid with an
+    estimate of 6.8 % where the full 3D model puts it 26.6 % low (a seeded f = 30..1000 sweep,
+    ``benchmarks/loss_dominated.py approx``, case 4). Flagged now (the loss factor is read from a
+    decade below the contact's frequency), and the full model confirms the flag; at 3.83 mm/s,
+    below the peak (tan delta <= 0.66 over the band), it stays valid and within the promise."""
+    mat, layer, speeds = jr.StandardLinearSolid(3.21e6, 0.0858, 146.0), jr.Layer(0.346), [3.83e-3, 6.13]
+    full = _grid(mat, layer, jr.Full(), speeds, [104.0])
+    res = _grid(mat, layer, jr.Direct(modulus="dynamic"), speeds, [104.0])
+    assert np.all(np.asarray(full.valid))
+    err = np.asarray(res.value)[:, 0] / np.asarray(full.value)[:, 0] - 1
+    assert err[1] < -0.10, err  # measured -26.6 %
+    assert np.asarray(res.result)[:, 0].tolist() == [0, jr.RESULTS.approximation_error], err
+    assert np.isinf(float(res.approximation[1, 0]))
+    assert abs(err[0]) <= SLACK + float(full.truncation[0, 0]), err  # measured -4.8 %
+
+
 def test_slices_beyond_their_calibrated_loss_factor_are_flagged():
     """A loss-dominated solid (SLS f = 33.8, tan delta up to 2.9; the slices' estimate is calibrated
     on f <= 10, tan delta <= 1.51) on a 7 mm layer at 1 and 2.47 m/s, 17.5 N: SP was valid with an
@@ -302,20 +321,44 @@ def _draw(rng, shipped):
     return mat, jr.Layer(H), R, loads, speeds, label
 
 
+def _draw_loss_dominated(rng):
+    """One random loss-dominated case, drawn as ``benchmarks/loss_dominated.py approx`` draws them
+    (the same sequence for the same seed): SLS f = 30..1000 (tan delta up to 15.8), G0 1..10 MPa,
+    tau 0.01..1 s, R = 2 cm, 2 loads of 10..150 N, 11 speeds, a half-space or a layer of 0.3..100
+    relaxed contact radii."""
+    speeds = np.sort(10 ** rng.uniform(-4, 1, 11))
+    G0, tau, f = 10 ** rng.uniform(6, 7), 10 ** rng.uniform(-2, 0), 10 ** rng.uniform(np.log10(30), 3)
+    mat, R = jr.StandardLinearSolid(G0, tau, f), 0.02
+    loads = np.sort(10 ** rng.uniform(1, np.log10(150), 2))
+    r = float(jr.engines.contact_size.estimate_contact_size(mat, HALF_SPACE, R, loads[-1]))
+    H = np.inf if rng.uniform() < 0.25 else r * 10 ** rng.uniform(np.log10(0.3), 2)
+    return mat, jr.Layer(H), R, loads, speeds, f"SLS G0={G0:.3g} tau={tau:.3g} f={f:.3g}"
+
+
 METHODS = {"direct-relaxed": jr.Direct(), "direct-dynamic": jr.Direct(modulus="dynamic"),
            "direct-glassy": jr.Direct(modulus="glassy"), "PD": jr.Slices("PD"), "PP": jr.Slices("PP"),
            "SP": jr.Slices("SP")}
 
 
+#: The two envelopes of the sweep below: (seed, cases, draw). "calibrated": SLS f = 0.05..10 and
+#: the measured Prony material; "loss-dominated": SLS f = 30..1000, the first five cases of
+#: ``benchmarks/loss_dominated.py approx`` (measured there: 0 points valid and more than the
+#: allowance off, after the fixes of 2026-11-29; the full tables take 0.3-12 min each, case 3's
+#: the longest).
+ENVELOPES = {"calibrated": (2711, 16, _draw), "loss-dominated": (77, 5, lambda rng, shipped: _draw_loss_dominated(rng))}
+
+
 @pytest.mark.slow
-def test_valid_means_within_10_percent_of_the_full_model_over_the_envelope(shipped):
+@pytest.mark.parametrize("envelope", list(ENVELOPES))
+def test_valid_means_within_10_percent_of_the_full_model_over_the_envelope(shipped, envelope):
     """Seeded random tables (material, layer, radius; 11 random speeds x 2 random loads each)
     against the full 3D model with its default grid; one line per case and a summary per method
     (``pytest -s``)."""
-    rng = np.random.default_rng(2711)
+    seed, n_cases, draw = ENVELOPES[envelope]
+    rng = np.random.default_rng(seed)
     stats = {k: [] for k in METHODS}
-    for case in range(16):
-        mat, layer, R, loads, speeds, label = _draw(rng, shipped)
+    for case in range(n_cases):
+        mat, layer, R, loads, speeds, label = draw(rng, shipped)
         try:
             full = _grid(mat, layer, jr.Full(), speeds, loads, radius=R)
         except ValueError as err:  # a grid above the memory budget

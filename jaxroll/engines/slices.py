@@ -69,7 +69,7 @@ from .._numerics import newton_root
 from .contact_size import estimate_contact_size
 from .cylinder import kernel_builder as line_kernel_builder
 from .direct import plane_strain_ratio
-from ..grids import FixedGrid, loss_beyond_calibration
+from ..grids import APPROXIMATION_LONG_WAVES, FixedGrid, loss_beyond_calibration
 from .layer import Layer
 from ..materials.material import StandardLinearSolid, storage_modulus
 from ..reference import hertz_sphere
@@ -597,8 +597,9 @@ def approximation_error(s: SliceSolution, material, layer, R, P, V, n_slices):
     The two parts add with their signs (the plane-strain part and the load defect both scale
     ``R_r``); their sum correlates with the measured error at 0.95 (SP) and 0.97 (PD) over the
     calibration set below. ``inf`` where the loss factor over the frequencies of the stationary
-    contact size ``r``, ``V/r .. 10 V/r``, exceeds the calibration's
-    (:func:`jaxroll.grids.loss_beyond_calibration`, as for the direct method).
+    contact size ``r``, ``V/(10 r) .. 10 V/r`` (:data:`jaxroll.grids.APPROXIMATION_LONG_WAVES`),
+    exceeds the calibration's (:func:`jaxroll.grids.loss_beyond_calibration`, as for the direct
+    method).
 
     Calibrated on the full 3D model with its default grid (``benchmarks/approx_validity.py
     errors``: standard linear solids G0 = 3 MPa, tau = 0.25 s, f = 0.1..10 on a half-space and
@@ -612,7 +613,7 @@ def approximation_error(s: SliceSolution, material, layer, R, P, V, n_slices):
     # direct method's rule): not valid. SLS G0 = 2.89 MPa, tau = 14.9 ms, f = 33.8 on a 7 mm layer
     # (R = 2 cm, 17.5 N): SP +16.3 % at 2.47 m/s where the estimate said 6.6 %, PD +12.6 % at 1 m/s
     # where it said 3.6 % (benchmarks/LOG.md, 2026-11-29)
-    return jnp.where(loss_beyond_calibration(material, V, r, r), jnp.inf, estimate)
+    return jnp.where(loss_beyond_calibration(material, V, r, r, below=APPROXIMATION_LONG_WAVES), jnp.inf, estimate)
 
 
 def _result(s: SliceSolution, grid: FixedGrid, material, layer, R, P, V, n_slices) -> RollingResult:
