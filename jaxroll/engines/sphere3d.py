@@ -112,11 +112,20 @@ def _mode_grid(n_cells, period, terms):
 
 class _LayerFactor(eqx.Module):
     """Speed-independent part of the kernel of a quasi-static layer (see :func:`sphere_kernel`):
-    ``A = T_1 S`` and ``B = q_x T_1 S^2`` on the mode grid, and ``q_x`` per x-bin/image."""
+    ``A = T_1 S`` and ``B = q_x T_1 S^2`` on the mode grid with the ``y`` images summed (``G*``
+    depends on ``q_x`` only), shape ``(Nx, Ny/2+1, Ix)``, and ``q_x`` per x-bin/image
+    ``(Nx, Ix)``. ``B`` is ``None`` where only the compliance is needed."""
 
     A: jax.Array
-    B: jax.Array
+    B: jax.Array | None
     qx: jax.Array
+
+    def over_modulus(self, material, V):
+        """``(sum_images A / conj(G*(q_x V)), 1/conj(G*(q_x V)))``: the compliance multiplier at
+        speed ``V`` [m/s] and the inverse modulus on the ``q_x`` modes."""
+        inv_g = 1.0 / jnp.conj(complex_modulus(material, self.qx * V))  # (Nx, Ix)
+        re, im = jnp.real(inv_g), jnp.imag(inv_g)
+        return jax.lax.complex(jnp.einsum("rsa,ra->rs", self.A, re), jnp.einsum("rsa,ra->rs", self.A, im)), inv_g
 
 
 def _radial(fn):
@@ -128,19 +137,17 @@ def _radial(fn):
     return t
 
 
-def _layer_factor(layer, n_cells, period, terms):
+def _layer_factor(layer, n_cells, period, terms, dissipation=True):
     qx, qy, S = _mode_grid(n_cells, period, terms)
-    t1 = _radial(lambda q: static_compliance(layer, q))(qx, qy)
-    return _LayerFactor(A=t1 * S, B=qx * t1 * S * S, qx=qx[:, 0, :, 0])
+    t1s = _radial(lambda q: static_compliance(layer, q))(qx, qy) * S
+    return _LayerFactor(A=jnp.sum(t1s, axis=3), B=jnp.sum(qx * t1s * S, axis=3) if dissipation else None,
+                        qx=qx[:, 0, :, 0])
 
 
 def _kernel_from_factor(factor: _LayerFactor, material, V):
     """``(K, K2)`` from the quasi-static factorisation ``T = T_1 / conj(G*(q_x V))``."""
-    inv_g = 1.0 / jnp.conj(complex_modulus(material, factor.qx * V))  # (Nx, Ix)
-    re, im = jnp.real(inv_g), jnp.imag(inv_g)
-    K = jax.lax.complex(jnp.einsum("rsab,ra->rs", factor.A, re), jnp.einsum("rsab,ra->rs", factor.A, im))
-    K2 = jnp.einsum("rsab,ra->rs", factor.B, im)
-    return K, K2
+    K, inv_g = factor.over_modulus(material, V)
+    return K, jnp.einsum("rsa,ra->rs", factor.B, jnp.imag(inv_g))
 
 
 def sphere_kernel(material, layer, speed, n_cells, period, terms):
@@ -248,15 +255,11 @@ def _with_symbol(build, material, layer, grid: FixedGrid):
         return build
     E = _contact.embedding_size(grid.window)
     L = E * grid.spacing
-    qx, qy, S = _mode_grid((E, E), (L, L), (SYMBOL_CUTOFF * E - 1,) * 2)
-    # T_1 S with the y images summed (G* depends on q_x only): (E, E//2 + 1, x images)
-    factor = jnp.sum(_radial(lambda q: static_compliance(layer, q))(qx, qy) * S, axis=3)
-    qx = qx[:, 0, :, 0]
+    factor = _layer_factor(layer, (E, E), (L, L), (SYMBOL_CUTOFF * E - 1,) * 2, dissipation=False)
 
     def with_symbol(V):
         kernel = build(V)
-        inv_g = 1.0 / jnp.conj(complex_modulus(material, qx * V))
-        symbol = jnp.einsum("rsa,ra->rs", factor.astype(inv_g.dtype), inv_g)
+        symbol, _ = factor.over_modulus(material, V)
         return _contact.WindowKernel(kernel.compliance.with_symbol(symbol), kernel.dissipation)
     return with_symbol
 
@@ -409,8 +412,8 @@ def static_pressure(material, layer: Layer, R, P, grid: FixedGrid, *, modulus: s
             inv_g = jnp.full(A.shape[0], 1.0 / glassy_modulus(material)).astype(complex)
             kernel = _aperiodic.surface_window_kernel(A, B, inv_g, grid.spacing, grid.window)
         else:
-            f = _layer_factor(layer, grid.n_cells, grid.period, grid.axis_terms())
-            Kr = jnp.sum(f.A, axis=(2, 3)) / glassy_modulus(material)
+            f = _layer_factor(layer, grid.n_cells, grid.period, grid.axis_terms(), dissipation=False)
+            Kr = jnp.sum(f.A, axis=2) / glassy_modulus(material)
             K = jax.lax.complex(Kr, jnp.zeros_like(Kr))
             kernel = _contact.periodic_window_kernel(K, jnp.zeros_like(Kr), grid.n_cells, grid.period,
                                                      (grid.window, grid.window))
