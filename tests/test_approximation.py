@@ -106,17 +106,17 @@ def test_direct_above_the_peak_of_a_loss_dominated_material_is_flagged():
     long waves carry part of the loss. The direct method with the dynamic contact was valid with an
     estimate of 6.8 % where the full 3D model puts it 26.6 % low (a seeded f = 30..1000 sweep,
     ``benchmarks/loss_dominated.py approx``, case 4). Flagged now (the loss factor is read from a
-    decade below the contact's frequency), and the full model confirms the flag; at 3.83 mm/s,
-    below the peak (tan delta <= 0.66 over the band), it stays valid and within the promise."""
-    mat, layer, speeds = jr.StandardLinearSolid(3.21e6, 0.0858, 146.0), jr.Layer(0.346), [3.83e-3, 6.13]
-    full = _grid(mat, layer, jr.Full(), speeds, [104.0])
-    res = _grid(mat, layer, jr.Direct(modulus="dynamic"), speeds, [104.0])
-    assert np.all(np.asarray(full.valid))
-    err = np.asarray(res.value)[:, 0] / np.asarray(full.value)[:, 0] - 1
-    assert err[1] < -0.10, err  # measured -26.6 %
-    assert np.asarray(res.result)[:, 0].tolist() == [0, jr.RESULTS.approximation_error], err
-    assert np.isinf(float(res.approximation[1, 0]))
-    assert abs(err[0]) <= SLACK + float(full.truncation[0, 0]), err  # measured -4.8 %
+    decade below the contact's frequency), and the full model confirms the flag. (Below the peak,
+    3.83 mm/s, it stays valid: the slow loss-dominated sweep below.)"""
+    mat, layer = jr.StandardLinearSolid(3.21e6, 0.0858, 146.0), jr.Layer(0.346)
+    full = jr.rolling_resistance(mat, layer, radius=RADIUS, load=104.0, speed=6.13, throw=False)
+    with pytest.warns(jr.ValidityWarning, match="approximate method's estimated error"):
+        res = jr.rolling_resistance(mat, layer, radius=RADIUS, load=104.0, speed=6.13,
+                                    method=jr.Direct(modulus="dynamic"), throw=False)
+    assert bool(full.valid)
+    err = float(res.value) / float(full.value) - 1
+    assert err < -0.10, err  # measured -26.6 %
+    assert int(res.result) == jr.RESULTS.approximation_error and np.isinf(float(res.approximation)), err
 
 
 def test_slices_beyond_their_calibrated_loss_factor_are_flagged():
