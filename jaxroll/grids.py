@@ -302,8 +302,9 @@ class FixedGrid(eqx.Module):
         temporary buffers): ~100 B per 3D Fourier mode and 64 B per period cell, plus the contact
         solver's Krylov basis (``restart + 1`` window vectors of the largest basis its default GMRES
         builds, twice for the adjoint solve), and in 3D the preconditioner's symbol
-        (:func:`jaxroll.engines.sphere3d._with_symbol`: four images of ``T_1 S`` and two complex
-        multipliers on the ``~2W x W`` half-spectrum of the embedding, ~128 B per window cell)."""
+        (:func:`jaxroll.engines.sphere3d._with_symbol`: four images of ``T_1 S``, or one image of
+        ``T S`` at a time for stacks and layers with inertia, and two complex multipliers on the
+        ``~2W x W`` half-spectrum of the embedding, ~128 B per window cell)."""
         from .contact.linear import FALLBACK_RESTART, RESTART_PLAIN, RESTART_PRECONDITIONED
 
         restart = max(RESTART_PRECONDITIONED, FALLBACK_RESTART) if ndim == 2 else RESTART_PLAIN

@@ -27,7 +27,7 @@ serves the implicit-differentiation solves (one solve each, no set decisions to 
 the pair, with the soft-min weights, the Newton steps of the smoothed contact edge.
 
 Where the compliance carries its layer's symbol (:attr:`~jaxroll.contact.WindowedCompliance.symbol`:
-the 3D sphere on a quasi-static layer), the whole level inverts the symbol, the layer's own
+the 3D sphere, on any layer or stack), the whole level inverts the symbol, the layer's own
 compliance on the embedding's period, instead of the embedded window coefficients. Those are cut
 at the window's offsets, and a loss-dominated material's creep trail runs far beyond the window
 (SLS ``f = 1000``, ``tau = 0.25`` s at 0.1 m/s: retardation length ``V tau (1 + f)`` = 25 m):
@@ -37,7 +37,9 @@ residual of 3e-5 (``linear_solve_failed``; at ``f = 100``, 32 cells, ``max_steps
 230 s). With the symbol, whose real part is positive, the same solves converged in 0.35 and
 0.18 s, and 26 solves over ``f = 1, 30``, half-space and 5 mm layer, 0.2 mm/s..2 m/s, default
 grid and 24 and 48 cells per radius gave the same values to 10 digits as before
-(benchmarks/LOG.md, 2026-11-29).
+(benchmarks/LOG.md, 2026-11-29). A stack and a layer with inertia (whose symbol is evaluated per
+speed) failed in the same way at ``f = 1000``, 0.1 m/s, 24 cells (``linear_solve_failed`` and
+``max_steps_reached``) and converge with it, at 5-10 % more time on ordinary tables.
 """
 
 from __future__ import annotations

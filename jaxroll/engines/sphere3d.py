@@ -250,17 +250,34 @@ def _with_symbol(build, material, layer, grid: FixedGrid):
     coefficients, whose truncation at the window's offsets cuts a loss-dominated material's creep
     trail and leaves the embedding's multiplier with near-zero and negative-real modes
     (:mod:`jaxroll.contact.precondition`). For a quasi-static layer (``T = T_1/G*``) the
-    speed-independent factor is formed here, once; other layers keep the embedding's inverse."""
-    if not is_quasistatic(layer):
-        return build
+    speed-independent factor is formed here, once, and each speed costs ``G*`` on the ``q_x``
+    modes; for a layer with inertia or a stack (``T`` does not factorise) each speed evaluates
+    ``T`` on the modes, one image pair at a time (a loop in the program: one copy of the layer's
+    code, one image's memory)."""
     E = _contact.embedding_size(grid.window)
     L = E * grid.spacing
-    factor = _layer_factor(layer, (E, E), (L, L), (SYMBOL_CUTOFF * E - 1,) * 2, dissipation=False)
+    terms = (SYMBOL_CUTOFF * E - 1,) * 2
+    if is_quasistatic(layer):
+        factor = _layer_factor(layer, (E, E), (L, L), terms, dissipation=False)
+
+        def symbol_at(V):
+            return factor.over_modulus(material, V)[0]
+    else:
+        qx, qy, S = (jnp.asarray(a) for a in _mode_grid((E, E), (L, L), terms))
+        images = [(i, j) for i in range(qx.shape[2]) for j in range(qy.shape[3])]
+        ii, jj = (jnp.asarray(k) for k in zip(*images))
+
+        def symbol_at(V):
+            def image(acc, ij):
+                i, j = ij
+                T = surface_compliance(layer, material, qx[:, :, i, 0], qy[:, :, 0, j], V)
+                return acc + T * S[:, :, i, j].astype(T.dtype), None
+
+            return jax.lax.scan(image, jnp.zeros(S.shape[:2], complex), (ii, jj))[0]
 
     def with_symbol(V):
         kernel = build(V)
-        symbol, _ = factor.over_modulus(material, V)
-        return _contact.WindowKernel(kernel.compliance.with_symbol(symbol), kernel.dissipation)
+        return _contact.WindowKernel(kernel.compliance.with_symbol(symbol_at(V)), kernel.dissipation)
     return with_symbol
 
 
