@@ -887,6 +887,8 @@ def loss_beyond_calibration(material, V, r_lo, r_hi, below: float = 1.0) -> jax.
     ``V/(below r_hi) .. 10 V/r_lo`` (``False`` at ``V = 0``); ``below`` (static, >= 1): how far
     below the contact's frequency the band starts (:data:`APPROXIMATION_LONG_WAVES` for the
     approximate methods). Not differentiated. Jittable."""
+    if not (isinstance(below, (int, float)) and below >= 1.0):
+        raise ValueError(f"below must be a static number >= 1; got {below!r}")
     material, V, r_lo, r_hi = jax.lax.stop_gradient((material, V, r_lo, r_hi))
     moving = (V > 0) & (r_lo > 0)
     V = jnp.where(moving, V, 1.0)

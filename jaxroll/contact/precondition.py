@@ -39,7 +39,7 @@ residual of 3e-5 (``linear_solve_failed``; at ``f = 100``, 32 cells, ``max_steps
 grid and 24 and 48 cells per radius gave the same values to 10 digits as before
 (benchmarks/LOG.md, 2026-11-29). A stack and a layer with inertia (whose symbol is evaluated per
 speed) failed in the same way at ``f = 1000``, 0.1 m/s, 24 cells (``linear_solve_failed`` and
-``max_steps_reached``) and converge with it, at 5-10 % more time on ordinary tables.
+``max_steps_reached``) and converge with it, at 10-13 % more time on ordinary tables.
 """
 
 from __future__ import annotations

@@ -260,17 +260,19 @@ def _with_symbol(build, material, layer, grid: FixedGrid):
     if is_quasistatic(layer):
         factor = _layer_factor(layer, (E, E), (L, L), terms, dissipation=False)
 
-        def symbol_at(V):
-            return factor.over_modulus(material, V)[0]
+        def symbol_at(V):  # (preconditioner data: no derivative, no tangents traced for it)
+            return jax.lax.stop_gradient(factor).over_modulus(*jax.lax.stop_gradient((material, V)))[0]
     else:
         qx, qy, S = (jnp.asarray(a) for a in _mode_grid((E, E), (L, L), terms))
         images = [(i, j) for i in range(qx.shape[2]) for j in range(qy.shape[3])]
         ii, jj = (jnp.asarray(k) for k in zip(*images))
 
         def symbol_at(V):
+            lay, mat, V = jax.lax.stop_gradient((layer, material, V))  # (as above)
+
             def image(acc, ij):
                 i, j = ij
-                T = surface_compliance(layer, material, qx[:, :, i, 0], qy[:, :, 0, j], V)
+                T = surface_compliance(lay, mat, qx[:, :, i, 0], qy[:, :, 0, j], V)
                 return acc + T * S[:, :, i, j].astype(T.dtype), None
 
             return jax.lax.scan(image, jnp.zeros(S.shape[:2], complex), (ii, jj))[0]
