@@ -24,8 +24,13 @@ import warnings
 
 import numpy as np
 
-import jaxroll as jr
-from jaxroll.engines.contact_size import estimate_contact_size
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the seeded draws
+
+import jaxroll as jr  # noqa: E402
+from _cases import draw_loss_dominated  # noqa: E402
 
 METHODS = {"direct-relaxed": jr.Direct(), "direct-dynamic": jr.Direct(modulus="dynamic"),
            "direct-glassy": jr.Direct(modulus="glassy"), "PD": jr.Slices("PD"), "SP": jr.Slices("SP")}
@@ -75,13 +80,7 @@ def approx(seed, n_cases, start=0):
     rng = np.random.default_rng(seed)
     totals = {k: [0, 0] for k in METHODS}
     for case in range(n_cases):
-        speeds = np.sort(10 ** rng.uniform(-4, 1, 11))
-        G0, tau, f = 10 ** rng.uniform(6, 7), 10 ** rng.uniform(-2, 0), 10 ** rng.uniform(np.log10(30), 3)
-        mat, R = jr.StandardLinearSolid(G0, tau, f), 0.02
-        loads = np.sort(10 ** rng.uniform(1, np.log10(150), 2))
-        r = float(estimate_contact_size(mat, jr.Layer(np.inf), R, loads[-1]))
-        H = np.inf if rng.uniform() < 0.25 else r * 10 ** rng.uniform(np.log10(0.3), 2)
-        layer = jr.Layer(H)
+        mat, layer, R, loads, speeds, label = draw_loss_dominated(rng)
         if case < start:  # drawn (the same cases for every start), not run
             continue
         t = time.perf_counter()
@@ -96,7 +95,7 @@ def approx(seed, n_cases, start=0):
             totals[name][0] += int(ok.sum())
             totals[name][1] += int(bad.sum())
             line.append(f"{name} {ok.sum()} valid, {bad.sum()} BAD" + (f" {err[bad].round(3)}" if bad.any() else ""))
-        print(f"case {case} G0={G0:.3g} tau={tau:.3g} f={f:.3g} H={H:.3g} loads={loads.round(1)}: "
+        print(f"case {case} {label} H={float(layer.H):.3g} loads={loads.round(1)}: "
               + "; ".join(line), flush=True)
     print("valid / BAD per method:", totals)
 

@@ -54,3 +54,21 @@ def compilations(caplog, fn) -> int:
     with caplog.at_level(logging.WARNING, logger="jax._src.dispatch"), jax.log_compiles(True):
         fn()
     return sum("Finished XLA compilation" in r.getMessage() for r in caplog.records)
+
+
+def draw_loss_dominated(rng):
+    """One random loss-dominated table: ``(material, layer, radius, loads, speeds, label)``, SLS
+    f = 30..1000 (tan delta up to 15.8), G0 1..10 MPa, tau 0.01..1 s, R = 2 cm, 2 loads of
+    10..150 N (sorted), 11 speeds 1e-4..10 m/s (sorted), a half-space (a quarter of the draws) or
+    a layer of 0.3..100 relaxed contact radii at the larger load. The cases of
+    ``tests/test_approximation.py``'s loss-dominated envelope and of
+    ``benchmarks/loss_dominated.py approx`` (the same sequence for the same seed)."""
+    import numpy as np
+
+    speeds = np.sort(10 ** rng.uniform(-4, 1, 11))
+    G0, tau, f = 10 ** rng.uniform(6, 7), 10 ** rng.uniform(-2, 0), 10 ** rng.uniform(np.log10(30), 3)
+    mat, R = jr.StandardLinearSolid(G0, tau, f), 0.02
+    loads = np.sort(10 ** rng.uniform(1, np.log10(150), 2))
+    r = float(jr.engines.contact_size.estimate_contact_size(mat, HALF_SPACE, R, loads[-1]))
+    H = np.inf if rng.uniform() < 0.25 else r * 10 ** rng.uniform(np.log10(0.3), 2)
+    return mat, jr.Layer(H), R, loads, speeds, f"SLS G0={G0:.3g} tau={tau:.3g} f={f:.3g}"

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jr
-from _cases import HALF_SPACE, PAPER, RADIUS, THICK, central_difference
+from _cases import HALF_SPACE, PAPER, RADIUS, THICK, central_difference, draw_loss_dominated
 
 #: The slices on an aperiodic 1 mm grid with a 16-cell window (~5 cells per contact radius at
 #: 100 N): the estimate does not depend on the grid (stationary pressures and the slices' load).
@@ -335,20 +335,6 @@ def _draw(rng, shipped):
     return mat, jr.Layer(H), R, loads, speeds, label
 
 
-def _draw_loss_dominated(rng):
-    """One random loss-dominated case, drawn as ``benchmarks/loss_dominated.py approx`` draws them
-    (the same sequence for the same seed): SLS f = 30..1000 (tan delta up to 15.8), G0 1..10 MPa,
-    tau 0.01..1 s, R = 2 cm, 2 loads of 10..150 N, 11 speeds, a half-space or a layer of 0.3..100
-    relaxed contact radii."""
-    speeds = np.sort(10 ** rng.uniform(-4, 1, 11))
-    G0, tau, f = 10 ** rng.uniform(6, 7), 10 ** rng.uniform(-2, 0), 10 ** rng.uniform(np.log10(30), 3)
-    mat, R = jr.StandardLinearSolid(G0, tau, f), 0.02
-    loads = np.sort(10 ** rng.uniform(1, np.log10(150), 2))
-    r = float(jr.engines.contact_size.estimate_contact_size(mat, HALF_SPACE, R, loads[-1]))
-    H = np.inf if rng.uniform() < 0.25 else r * 10 ** rng.uniform(np.log10(0.3), 2)
-    return mat, jr.Layer(H), R, loads, speeds, f"SLS G0={G0:.3g} tau={tau:.3g} f={f:.3g}"
-
-
 METHODS = {"direct-relaxed": jr.Direct(), "direct-dynamic": jr.Direct(modulus="dynamic"),
            "direct-glassy": jr.Direct(modulus="glassy"), "PD": jr.Slices("PD"), "PP": jr.Slices("PP"),
            "SP": jr.Slices("SP")}
@@ -359,7 +345,7 @@ METHODS = {"direct-relaxed": jr.Direct(), "direct-dynamic": jr.Direct(modulus="d
 #: ``benchmarks/loss_dominated.py approx`` (measured there: 0 points valid and more than the
 #: allowance off, after the fixes of 2026-11-29; the full tables take 8 s to 12 min each, case 3's
 #: the longest).
-ENVELOPES = {"calibrated": (2711, 16, _draw), "loss-dominated": (77, 5, lambda rng, shipped: _draw_loss_dominated(rng))}
+ENVELOPES = {"calibrated": (2711, 16, _draw), "loss-dominated": (77, 5, lambda rng, shipped: draw_loss_dominated(rng))}
 
 
 @pytest.mark.slow
