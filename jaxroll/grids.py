@@ -1079,19 +1079,32 @@ def counting_size(material, layer, radius, load, speed, geometry="sphere"):
     return _counting_and_window_sizes(material, layer, radius, load, speed, geometry)[0]
 
 
+def loss_dominated_points(material, layer, radius, loads, speeds, geometry="sphere") -> np.ndarray:
+    """Whether the loss factor over each point's contact frequencies, ``V/a_rel .. 10 V/a_dyn``
+    (``a_rel``, ``a_dyn`` the relaxed and dynamic contact size estimates), exceeds
+    :data:`CALIBRATED_TAN_DELTA` (:func:`loss_beyond_calibration`): there the full models' grids
+    count cells on :data:`LOSS_DOMINATED_CONTACT_RATIO` of the dynamic size, and the sphere's
+    automatic method switches on the contact search's continuation (``jr.Full(continuation=...)``).
+    Points ``(loads[i], speeds[i])``, concrete; host NumPy booleans (the grid rules' program)."""
+    loads = np.atleast_1d(np.asarray(loads, float)).ravel()
+    speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), loads.shape)
+    return np.asarray(_compilation_cache.call(_counting_table, material, layer, as_float(radius), jnp.asarray(loads),
+                                              jnp.asarray(speeds), geometry)[2])
+
+
 def _counting_and_window_sizes(material, layer, radius, load, speed, geometry):
     """:func:`counting_size` and the size [m] the window covers :data:`SPHERE_WINDOW_RADII` /
     :data:`LINE_WINDOW_RADII` of: the counting size with ``q`` = :data:`DYNAMIC_CONTACT_RATIO`
-    everywhere. Where the material is loss-dominated the cells are counted on the smaller size
+    everywhere; and whether the point is loss-dominated (:func:`loss_dominated_points`). Where the material is loss-dominated the cells are counted on the smaller size
     (:data:`LOSS_DOMINATED_CONTACT_RATIO`) and the window keeps its width in metres: with both
     on the smaller size the default cylinder at f = 1000 (5 kN/m, 0.1-0.3 m/s) reached the
     window's edge."""
     a_rel = estimate_contact_size(material, layer, radius, load, geometry)
     a_dyn = dynamic_contact_size(material, layer, radius, load, speed, geometry)
-    q = jnp.where(loss_beyond_calibration(material, speed, a_dyn, a_rel), LOSS_DOMINATED_CONTACT_RATIO[geometry],
-                  DYNAMIC_CONTACT_RATIO)
+    lossy = loss_beyond_calibration(material, speed, a_dyn, a_rel)
+    q = jnp.where(lossy, LOSS_DOMINATED_CONTACT_RATIO[geometry], DYNAMIC_CONTACT_RATIO)
     return (jnp.minimum(a_rel, q * a_dyn / CALIBRATED_CONTACT_RATIO),
-            jnp.minimum(a_rel, DYNAMIC_CONTACT_RATIO * a_dyn / CALIBRATED_CONTACT_RATIO))
+            jnp.minimum(a_rel, DYNAMIC_CONTACT_RATIO * a_dyn / CALIBRATED_CONTACT_RATIO), lossy)
 
 
 #: Measured bias of the smoothed contact edge against the exact discrete contact on the default
@@ -1289,7 +1302,7 @@ def _grid_sizes(material, layer, radius, loads, speeds, geometry):
     loads = np.atleast_1d(np.asarray(loads, float)).ravel()
     speeds = np.broadcast_to(np.atleast_1d(np.asarray(speeds, float)).ravel(), loads.shape)
     r, w = (np.asarray(x) for x in _compilation_cache.call(_counting_table, material, layer, as_float(radius),
-                                                         jnp.asarray(loads), jnp.asarray(speeds), geometry))
+                                                         jnp.asarray(loads), jnp.asarray(speeds), geometry)[:2])
     if not np.all(np.isfinite(r) & (r > 0) & np.isfinite(w)):
         raise ValueError(f"cannot size a grid: the estimated contact sizes are {r}")
     relaxed = _sizes(material, layer, radius, loads, geometry)

@@ -25,6 +25,7 @@ values).
 from __future__ import annotations
 
 import abc
+import dataclasses
 import functools
 
 import equinox as eqx
@@ -38,7 +39,7 @@ from .contact.linear import check_linear_solver
 from .engines import cylinder, direct, slices, sphere3d
 from .engines.stack import models
 from .geometry import as_geometry, check_geometry
-from .grids import AutoGrid, FixedGrid, check_memory, counting_size, edge_smoothing_error
+from .grids import AutoGrid, FixedGrid, check_memory, counting_size, edge_smoothing_error, loss_dominated_points
 from .result import RollingResult
 
 __all__ = ["AbstractMethod", "Direct", "DirectElastic", "Full", "Slices", "as_method", "default_method",
@@ -257,6 +258,13 @@ class Full(_GridMethod):
             more (800 cells, f = 12, a/H = 2.8, zeta = 8e-3: 345 steps).
         linear_solver: the linear solver of the contact-set systems
             (:class:`jaxroll.contact.GMRES`, default, or :class:`jaxroll.contact.Dense`).
+        continuation: sphere only: where the contact's active-set search gives up (a
+            loss-dominated contact: the set fragments, or 12 steps pass), start it again from the
+            smoothed edge's continuation (``continuation`` of :func:`jaxroll.contact.solve_contact`:
+            the same solution, SLS f = 1000 at 32 cells per radius in 1.1 s instead of 91 s, for
+            about 3 s more compilation). ``None`` (default): on where an :class:`~jaxroll.grids.AutoGrid`
+            is sized for an envelope with a loss-dominated point (:func:`jaxroll.grids.loss_dominated_points`),
+            off otherwise (a :class:`~jaxroll.grids.FixedGrid`).
     """
 
     #: Largest estimated relative error of a valid result: ``truncation`` bounds the error of
@@ -271,9 +279,12 @@ class Full(_GridMethod):
     tol: float = eqx.field(static=True, default=1e-10)
     max_steps: int = eqx.field(static=True, default=200)
     linear_solver: _contact.AbstractLinearSolver = _contact.GMRES()
+    continuation: bool | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         _check_grid(self.grid, "Full")
+        if self.continuation not in (None, False, True):
+            raise ValueError(f"Full.continuation must be None, True or False; got {self.continuation!r}")
         if self.edge_smoothing is not None and not (isinstance(self.edge_smoothing, (int, float))
                                                     and self.edge_smoothing > 0):
             raise ValueError(f"Full.edge_smoothing must be None or a positive number; got {self.edge_smoothing!r}")
@@ -295,13 +306,19 @@ class Full(_GridMethod):
         if not self.needs_resolution(geometry):
             return self
         rule = self.grid.sphere if geometry == "sphere" else self.grid.line
-        return eqx.tree_at(lambda m: m.grid, self, rule(material, layer, radius, loads, speeds, model="full"))
+        out = eqx.tree_at(lambda m: m.grid, self, rule(material, layer, radius, loads, speeds, model="full"))
+        if geometry != "sphere" or self.continuation is not None:
+            return out
+        P, V = (x.ravel() for x in np.meshgrid(np.ravel(loads), np.ravel(speeds), indexing="ij"))
+        lossy = loss_dominated_points(material, layer, radius, P, V, geometry)
+        return dataclasses.replace(out, continuation=bool(np.any(lossy)))
 
     def _solve(self, model, kernel, R, P, size, init=None):
+        extra = {"continuation": bool(self.continuation)} if _engine_name(model) == "sphere3d" else {}
         return model.solve(kernel, self.grid, R, P, size, tol=self.tol, max_steps=self.max_steps,
                            edge_smoothing=self.edge_smoothing, init=init, linear_solver=self.linear_solver,
                            edge_order=EDGE_BIAS_ORDER[_engine_name(model)] if self.edge_extrapolation
-                           else None)
+                           else None, **extra)
 
     def _result(self, model, s, layer, V, material):
         """The :class:`RollingResult` of solution ``s``; with ``edge_extrapolation`` its

@@ -201,7 +201,9 @@ def test_loss_dominated_material_converges_near_the_peak_and_refines(f):
     """A loss-dominated standard linear solid (f = 100 / 1000: tan delta up to 5.0 / 15.8, as
     rubbers reach) on a 30 mm layer at 30 mm/s, near its R_r peak: the default sphere stopped at
     max_steps_reached (63.1 / 34.4 N, the set drifting and collapsing in cycles) before the
-    search released before adding (``jaxroll.contact.active_set.DAMPED_AFTER``). Now it converges,
+    search released before adding (``jaxroll.contact.active_set.DAMPED_AFTER``; since then the
+    automatic method continues a fragmented search from the smoothed edge instead,
+    :func:`test_a_fragmented_search_continues_from_the_smoothed_edge`). Now it converges,
     and 24 cells per radius (an independent solve on a finer grid) agree within the two bounds:
     measured 0.78 % / 1.6 % apart, bounds 0.92 + 0.30 % / 2.62 + 0.30 % (at f = 1000 the truncation
     takes the moment-dissipation gap: the loss factor is beyond the error tables', ``jr.grids.
@@ -264,3 +266,70 @@ def test_loss_dominated_cylinder_converges_and_refines(f, H, V):
     d, fi = out["default"], out["finer"]
     assert abs(float(d.value) / float(fi.value) - 1) <= float(d.truncation) + float(fi.truncation)
     assert float(d.contact_radius) / float(g.spacing) >= 6  # cells on the solved half-width (4 before)
+
+
+def test_the_automatic_sphere_grid_switches_the_continuation_on_where_the_material_is_loss_dominated():
+    """``jr.Full().resolve`` turns ``continuation`` on for an envelope with a loss-dominated point
+    (the loss factor over the contact's frequencies above the error tables' 1.6,
+    ``jr.grids.loss_dominated_points``: SLS f = 30 reaches 2.7) and off where none is (f = 1, 10:
+    the program every ordinary material compiles is the one it compiled before); an explicit
+    choice and a FixedGrid are kept; the cylinder (1D windows) never uses it."""
+    kw = dict(radius=R, loads=[50.0, P], speeds=[0.01, 0.03])
+    for f, on in ((1.0, False), (10.0, False), (30.0, True), (1000.0, True)):
+        mat = jr.StandardLinearSolid(G_INF, 0.25, f)
+        assert jr.Full().resolve(mat, jr.Layer(0.03), **kw).continuation is on, f
+        assert jr.Full(continuation=False).resolve(mat, jr.Layer(0.03), **kw).continuation is False
+    mat = jr.StandardLinearSolid(G_INF, 0.25, 1000.0)
+    assert jr.grids.loss_dominated_points(mat, jr.Layer(0.03), R, [P, P], [0.01, 0.03]).tolist() == [True, True]
+    assert jr.Full(grid=jr.FixedGrid(2e-4, 61)).resolve(mat, jr.Layer(0.03), **kw).continuation is None
+    assert jr.Full().resolve(mat, jr.Layer(0.03), geometry="cylinder", radius=R, loads=[5e3],
+                             speeds=[0.01]).continuation is None
+    with pytest.raises(ValueError, match="continuation"):
+        jr.Full(continuation="yes")
+
+
+def _continued(cells, speeds):
+    """``{continuation: [(value, code, iterations), ...]}`` of SLS f = 1000 on a half-space
+    (R = 2 cm, 100 N) at ``cells`` per radius, each speed eagerly with the plain search and with
+    the continuation."""
+    mat, layer = jr.StandardLinearSolid(G_INF, 0.25, 1000.0), jr.Layer(float("inf"))
+    out = {}
+    for cont in (False, True):
+        method = jr.Full(grid=jr.AutoGrid(cells_per_radius=cells), continuation=cont)
+        runs = [jr.rolling_resistance(mat, layer, radius=R, load=P, speed=V, method=method, throw=False) for V in speeds]
+        out[cont] = [(float(r.value), jr.RESULTS.names[int(r.result)], int(r.solution.iterations)) for r in runs]
+    return out
+
+
+@pytest.mark.parametrize("cells", [12, pytest.param(16, marks=pytest.mark.slow)])
+def test_a_fragmented_search_continues_from_the_smoothed_edge(cells):
+    """SLS f = 1000 (tan delta up to 15.8) on a half-space at 10 mm/s near its R_r peak: the
+    active-set search scatters the set at its first step (edge cells 3-5x a disc's) and wanders:
+    61 / 67 steps at 12 / 16 cells per radius (0.45 / 7.0 s to run; at 32 cells 162 steps, 91 s).
+    With the continuation it gives up there, solves the smoothed edge from a wide soft minimum to
+    a narrow one and confirms the set: 37 / 35 Newton and active-set steps (0.26 / 0.18 s; 32
+    cells 1.15 s). Oracle: the plain search's converged solve, the same contact problem solved
+    another way: equal to the solver's tolerance (1e-9 allowed, measured 1e-13). At 3 mm/s the
+    search does not fragment (5 steps) and is left as it was: the same steps."""
+    runs = _continued(cells, [0.01, 0.003])
+    for (v0, c0, n0), (v1, c1, n1) in zip(runs[False], runs[True]):
+        assert c0 == c1 == "successful", runs
+        assert v1 == pytest.approx(v0, rel=1e-9), runs
+    assert runs[False][0][2] >= 55 and runs[True][0][2] <= 45, runs
+    assert runs[False][1][2] == runs[True][1][2] <= 8, runs
+
+
+def test_lockstep_lanes_continue_only_where_their_search_gave_up():
+    """Under a plain ``jax.vmap`` of one point (lanes in lockstep, as a user's vmap of the engine
+    runs them; the front door scans its points instead) the lane whose search fragments (10 mm/s)
+    continues and the other (3 mm/s) takes no continuation step: each lane equals its eager
+    value (to 1e-9, the solver's tolerance: the lanes iterate differently)."""
+    import jax
+    import jax.numpy as jnp
+
+    mat, layer, speeds = jr.StandardLinearSolid(G_INF, 0.25, 1000.0), jr.Layer(float("inf")), [0.01, 0.003]
+    method = jr.Full(grid=jr.AutoGrid(cells_per_radius=12)).resolve(mat, layer, radius=R, loads=P, speeds=speeds)
+    assert method.continuation is True
+    lanes = jax.jit(jax.vmap(lambda V: method._evaluate_one(mat, layer, R, P, V, "sphere").value))(jnp.asarray(speeds))
+    eager = [float(jr.rolling_resistance(mat, layer, radius=R, load=P, speed=V, method=method).value) for V in speeds]
+    np.testing.assert_allclose(np.asarray(lanes), eager, rtol=1e-9)

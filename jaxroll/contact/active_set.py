@@ -19,7 +19,7 @@ import jax.numpy as jnp
 from .system import ContactSystem
 
 __all__ = ["active_set_loop", "find_contact_set", "LOOSE_LINEAR_RTOL", "FIRST_LINEAR_RTOL", "PLAIN_LINEAR_RTOL",
-           "SET_MARGIN", "TURN_EDGE_FRACTION", "DAMPED_AFTER"]
+           "SET_MARGIN", "TURN_EDGE_FRACTION", "DAMPED_AFTER", "CONTINUE_AFTER", "FRAGMENTED_EDGE"]
 
 #: Relative residual of the linear solves while the contact set is searched (the final set is
 #: confirmed and solved at ``1e-3 tol``; see :func:`find_contact_set`), and of the first of them
@@ -55,6 +55,22 @@ TURN_EDGE_FRACTION = 0.125
 #: reference table: at most 4 steps) are unchanged. 1D windows keep the full update (there an edge
 #: walks a cell per step on thin layers, 144 steps at 400 cells, which alternation would double).
 DAMPED_AFTER = 16
+#: A 2D search with ``give_up`` stops (:func:`find_contact_set`) after :data:`CONTINUE_AFTER`
+#: steps, or at a step whose set has more than :data:`FRAGMENTED_EDGE` times the edge cells of a
+#: disc of its size; its caller then starts the exact search again from the smoothed edge's
+#: continuation (:func:`jaxroll.contact.smoothing.continuation_solve`). On a loss-dominated
+#: material (glassy Boussinesq plus a creep term of comparable size that accumulates along the
+#: rolling direction) the primal-dual update is not a contraction: from the initial disc the first
+#: step scatters cells of negative pressure over the set (edge ratio 2.8-4.7 at SLS f = 300-1000,
+#: half-space, 10 mm/s, 8-32 cells per radius). Some searches recover (f = 1000 at 8 cells: the
+#: ratio below 2 at the fourth step, converged in 8 steps, 0.03 s; given up, 0.15 s), most
+#: fine ones do not (f = 1000 at 12 / 16 / 32 cells: 61 / 67 / 162 steps, the last 91 s), and
+#: the fragmented steps are the expensive ones: at 32 cells, given up at the first step 1.1 s,
+#: at the second 5.4 s, at the fourth 7.1 s (benchmarks/LOG.md, 2026-12-08). The reference
+#: table's searches take at most 4 steps on compact sets (ratio ~1); a search that does not
+#: fragment but still wanders gives up after :data:`CONTINUE_AFTER` steps.
+CONTINUE_AFTER = 16
+FRAGMENTED_EDGE = 2.0
 
 
 def active_set_loop(step, state0, aux0, max_steps):
@@ -93,7 +109,8 @@ def active_set_loop(step, state0, aux0, max_steps):
     return jax.lax.while_loop(cond, body, (state0, aux0, jnp.asarray(0), jnp.asarray(False)))
 
 
-def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, max_steps):
+def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, max_steps, give_up=False,
+                     active=True):
     """The converged contact set of ``system`` (on ``stop_gradient`` data) and its solution.
 
     Two phases in one loop: the set is found with loose linear solves (relative residual
@@ -115,14 +132,19 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
         solver: an :class:`~jaxroll.contact.linear.AbstractLinearSolver`.
         precond: ``mask -> M`` or a pair ``(M_cheap, M_whole)`` (or ``None``-returning) for the
             active-set systems.
+        give_up: ``False`` (static), or a bool (traced allowed): where true, on a 2D window, stop
+            after :data:`CONTINUE_AFTER` steps or at a fragmented set (:data:`FRAGMENTED_EDGE`),
+            and say so (the caller continues
+            the search another way). active: traced bool; where false, no step is taken (a batch's lanes).
 
     Returns:
-        ``(mask, x, iterations, converged, robust, gap)``; ``robust``: whether a linear solve needed
+        ``(mask, x, iterations, converged, robust, gap, gave_up)``; ``robust``: whether a linear solve needed
         the robust level of the preconditioner pair (from then on the steps use it from the
         start, :meth:`~jaxroll.contact.linear.AbstractLinearSolver.solve_tracked`); ``gap``: the
         scaled gap at ``x`` of the pressure on the set, from the product that checked the last
-        solve's residual.
+        solve's residual; ``gave_up``: the search stopped by ``give_up`` (``converged`` false).
     """
+    check = give_up is not False and len(system.shape) == 2
     strict = tol * 1e-3
     loose, first = (LOOSE_LINEAR_RTOL, FIRST_LINEAR_RTOL) if solver.preconditioned else (PLAIN_LINEAR_RTOL,) * 2
     loose, first = max(strict, loose), max(strict, first)
@@ -130,7 +152,7 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
 
     def step(state, aux):
         mask, is_strict = state
-        x, k, robust, _ = aux
+        x, k, robust, _, _ = aux
         rtol = jnp.where(is_strict, strict, jnp.where(k == 0, first, loose))
         margin = jnp.where(is_strict, eps, max(eps, SET_MARGIN))
         # the gap from the product that checked the solve's residual (no extra application)
@@ -143,13 +165,22 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
             new = jnp.where((k >= DAMPED_AFTER) & jnp.any(release), mask & ~release, new)
         changed, edge = jnp.sum(new != mask, dtype=float), jnp.sum(_edge_cells(mask), dtype=float)
         turn = (changed <= jnp.floor(TURN_EDGE_FRACTION * edge)) | (k + 1 >= max_steps)
-        return (new, is_strict | turn), (x, k + 1, robust, gap)
+        stop = jnp.asarray(False)
+        if check:  # the state unchanged ends the loop
+            size = jnp.maximum(jnp.sum(new, dtype=float), 1.0)
+            disc_edge = 2.0 * jnp.sqrt(jnp.pi * size)
+            fragmented = jnp.sum(_edge_cells(new), dtype=float) > FRAGMENTED_EDGE * disc_edge
+            stop = fragmented | (k + 1 >= CONTINUE_AFTER)
+            stop = stop & jnp.any(new != mask) & give_up
+            new, turn = jnp.where(stop, mask, new), turn & ~stop
+        return (new, is_strict | turn), (x, k + 1, robust, gap, stop)
 
-    (mask, _), (x, _, robust, gap), iters, done = active_set_loop(
-        step, (mask0, jnp.asarray(loose <= strict)), (x0, jnp.asarray(0), jnp.asarray(False), jnp.zeros(system.shape)),
-        2 * max_steps)
+    (mask, _), (x, _, robust, gap, stopped), iters, done = active_set_loop(
+        step, (mask0, jnp.asarray(loose <= strict)),
+        (x0, jnp.asarray(0), jnp.asarray(False), jnp.zeros(system.shape), jnp.asarray(False)),
+        jnp.where(active, 2 * max_steps, 0))
     sg = jax.lax.stop_gradient
-    return sg(mask), sg(x), iters, done, robust, sg(gap)
+    return sg(mask), sg(x), iters, done & ~stopped, robust, sg(gap), stopped
 
 
 def _edge_cells(mask):

@@ -25,7 +25,7 @@ import numpy as np
 from .precondition import CirculantPreconditioner
 from .system import ContactSystem
 
-__all__ = ["edge_gap_scale", "extrapolated_solve", "smoothed_solve"]
+__all__ = ["continuation_solve", "edge_gap_scale", "extrapolated_solve", "smoothed_solve"]
 
 #: Step lengths tried by the damped Newton iteration (Armijo backtracking); NumPy, so that importing
 #: the package compiles nothing.
@@ -58,6 +58,24 @@ PARTNER_TOL_FACTOR = 1e5
 #: loose ``tol`` (1e-6) the factor alone would stop the partner after one Newton step and leave
 #: 4e-4 of the peak pressure in the extrapolated solution (1 % of the bias it removes).
 PARTNER_TOL_MAX = 1e-5
+
+
+#: Gap scales of :func:`continuation_solve`'s levels, in units of the system's gap scale ``g_s``
+#: (the gap that the mean pressure of the initial contact set closes over one cell), a factor 4
+#: apart. At the first the soft minimum blurs the edge over the whole initial set, and the
+#: damped Newton iteration converges from the uniform start; each later level starts from the
+#: one before; at the last the cells where the gap condition dominates are the exact contact set
+#: to within a few cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space,
+#: R = 2 cm, 100 N, 10 mm/s, 32 cells per radius): 33 Newton steps over the six levels, then 3
+#: active-set steps, 1.5 s, where the active-set search alone took 162 steps and 91 s (the same
+#: R_r to 1e-14; benchmarks/LOG.md). From 1 (three levels fewer) the first level took 37-51 steps.
+CONTINUATION_LEVELS = 16.0 * 0.25 ** np.arange(6.0)
+#: Scaled residual at which a level of :func:`continuation_solve` passes to the next (the exact
+#: search that follows decides the set to ``tol``).
+CONTINUATION_TOL = 1e-4
+#: Most damped Newton steps at one level of :func:`continuation_solve` (a level that has not
+#: converged by then passes its iterate on).
+CONTINUATION_LEVEL_STEPS = 20
 
 
 def _residual(system: ContactSystem, x, c0_ratio, eps):
@@ -104,6 +122,31 @@ def _jacobian(system: ContactSystem, a, gt, eps, precond: CirculantPreconditione
     return matvec, preconditioner
 
 
+def _newton_step(fixed: ContactSystem, x, res, eps_t, solver, precond, tol, robust, one_level=False):
+    """One damped Newton step on the soft-min residual at the scaled gap scale ``eps_t``:
+    ``(x, (F, a, g~)) -> (x', (F', a', g~'))``, the iterate carrying its residual and soft-min
+    arguments. The gap is affine in ``x``, so the trial steps' gaps are ``g~ + alpha C(step)``: one
+    operator application per Newton step for all the Armijo trials (the accepted trial's values
+    become the next iterate's)."""
+    F, a, gt = res
+    mv, M = _jacobian(fixed, a, gt, eps_t, precond)
+    # inexact Newton: the step's relative residual min(|F|, 1e-2) (Eisenstat-Walker's forcing
+    # term |F|) keeps the convergence quadratic at a fraction of the Krylov iterations of a
+    # solve at 1e-3 tol; the stopping tests are on the residual F itself
+    rtol = jnp.clip(jnp.max(jnp.abs(F)), tol * 1e-3, NEWTON_FORCING_MAX)
+    if one_level:  # one Krylov loop on the robust level (solve_derivative): less to compile
+        step = solver.solve_derivative(mv, -F, M(False), rtol)
+    else:
+        step = solver.solve_tracked(mv, -F, None, M(False), rtol, robust)[0]
+    s_p = step[:-1].reshape(fixed.shape)
+    d_gap = fixed.compliance(s_p) * (fixed.p_s / fixed.g_s) - step[-1]  # the gap's change per unit step
+    trials = jax.vmap(lambda al: _trial(fixed, x, a, gt, step, d_gap, al, eps_t))(jnp.asarray(_ALPHAS))
+    merit = jnp.sum(trials[0] ** 2, axis=1)
+    ok = merit <= (1.0 - 1e-4 * _ALPHAS) * jnp.sum(F * F)  # Armijo on |F|^2
+    k = jnp.where(jnp.any(ok), jnp.argmax(ok), _ALPHAS.size - 1)
+    return x + jnp.asarray(_ALPHAS)[k] * step, jax.tree_util.tree_map(lambda t: t[k], trials)
+
+
 def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol, max_steps, robust=None):
     """Damped Newton on ``smin_eps(c0 p, g) = 0`` from the exact solution ``x_exact``.
 
@@ -126,26 +169,10 @@ def smoothed_solve(system: ContactSystem, x_exact, eps, solver, precond, *, tol,
     c0 = jnp.abs(fixed.compliance.self_compliance)
 
     def newton(state):
-        # carries the residual and soft-min arguments of the current iterate. The gap is affine in
-        # x, so the trial steps' gaps are gt + alpha C(step): one operator application per Newton
-        # step for all the Armijo trials (the accepted trial's values become the next iterate's)
-        x, (F, a, gt), it, _ = state
-        mv, M = _jacobian(fixed, a, gt, eps_t, precond)
-        # inexact Newton: the step's relative residual min(|F|, 1e-2) (Eisenstat-Walker's forcing
-        # term |F|) keeps the convergence quadratic at a fraction of the Krylov iterations of a
-        # solve at 1e-3 tol; the stopping test below is on the residual F itself
-        rtol = jnp.clip(jnp.max(jnp.abs(F)), tol * 1e-3, NEWTON_FORCING_MAX)
-        step = solver.solve_tracked(mv, -F, None, M(False), rtol, robust)[0]
-        s_p = step[:-1].reshape(fixed.shape)
-        d_gap = fixed.compliance(s_p) * (fixed.p_s / fixed.g_s) - step[-1]  # the gap's change per unit step
-        trials = jax.vmap(lambda al: _trial(fixed, x, a, gt, step, d_gap, al, eps_t))(jnp.asarray(_ALPHAS))
-        merit = jnp.sum(trials[0] ** 2, axis=1)
-        ok = merit <= (1.0 - 1e-4 * _ALPHAS) * jnp.sum(F * F)  # Armijo on |F|^2
-        k = jnp.where(jnp.any(ok), jnp.argmax(ok), _ALPHAS.size - 1)
-        x = x + jnp.asarray(_ALPHAS)[k] * step
-        res_k = jax.tree_util.tree_map(lambda t: t[k], trials)
-        done = (jnp.max(jnp.abs(res_k[0])) <= tol) | ~jnp.all(jnp.isfinite(x))
-        return x, res_k, it + 1, done
+        x, res, it, _ = state
+        x, res = _newton_step(fixed, x, res, eps_t, solver, precond, tol, robust)
+        done = (jnp.max(jnp.abs(res[0])) <= tol) | ~jnp.all(jnp.isfinite(x))
+        return x, res, it + 1, done
 
     x_s, (F_s, a_s, gt_s), n_it, n_done = jax.lax.while_loop(
         lambda s: (~s[3]) & (s[2] < max_steps), newton,
@@ -190,6 +217,50 @@ def extrapolated_solve(system: ContactSystem, x_exact, eps, solver, precond, *, 
     w = 1.0 / (2.0 ** order - 1.0)
     # the residual in units of the first solve's tolerance (each solve against its own)
     return x[0] + w * (x[0] - x[1]), contact[0], jnp.sum(n), jnp.all(ok), jnp.max(r * (tol / tols))
+
+
+def continuation_solve(fixed: ContactSystem, x0, solver, precond, *, active, robust=None):
+    """The smoothed edge continued from a wide soft minimum to a narrow one
+    (:data:`CONTINUATION_LEVELS`): the start of an exact search where the active-set iteration
+    does not contract (:func:`~jaxroll.contact.active_set.find_contact_set` gives up).
+
+    One ``while_loop`` over damped Newton steps (:func:`_newton_step`) and levels: a level passes
+    to the next at :data:`CONTINUATION_TOL` or after :data:`CONTINUATION_LEVEL_STEPS` steps, and
+    the next level's residual comes from the same soft-min arguments (no operator application).
+
+    Args:
+        fixed: the stopped system; x0: the start (scaled unknowns, e.g. the uniform pressure on
+            the initial set). active: traced bool; where false, no step is taken (a batch's lanes
+            that need no continuation cost one operator application).
+        solver, precond: as :func:`smoothed_solve`.
+
+    Returns:
+        ``(x, contact, steps)`` on ``stop_gradient`` data: the last level's iterate, its cells where
+        the gap condition dominates, and the Newton steps taken.
+    """
+    levels = jnp.asarray(CONTINUATION_LEVELS)
+    pt0 = jnp.maximum(x0[:-1], 0.0)
+    x0 = jnp.concatenate([pt0, x0[-1:]])
+    def at(a, gt, F_last, e):
+        return jnp.concatenate([(-e * jnp.logaddexp(-a / e, -gt / e)).ravel(), F_last[None]])
+
+    def body(state):
+        x, (F, a, gt), level, at_level, steps = state
+        x, (F, a, gt) = _newton_step(fixed, x, (F, a, gt), levels[level], solver, precond, CONTINUATION_TOL, robust,
+                                    one_level=False)
+        passed = (jnp.max(jnp.abs(F)) <= CONTINUATION_TOL) | (at_level + 1 >= CONTINUATION_LEVEL_STEPS)
+        nxt = jnp.minimum(level + 1, levels.size - 1)
+        F = jnp.where(passed & (level + 1 < levels.size), at(a, gt, F[-1], levels[nxt]), F)
+        return x, (F, a, gt), jnp.where(passed, level + 1, level), jnp.where(passed, 0, at_level + 1), steps + 1
+
+    def cond(state):
+        x, _, level, _, _ = state
+        return active & (level < levels.size) & jnp.all(jnp.isfinite(x))
+
+    init = (x0, _residual(fixed, x0, 1.0, levels[0]), jnp.asarray(0), jnp.asarray(0), jnp.asarray(0))
+    x, (_, a, gt), _, _, steps = jax.lax.while_loop(cond, body, init)
+    sg = jax.lax.stop_gradient
+    return sg(x), sg(gt < a), steps
 
 
 def edge_gap_scale(kappa, cell_size, contact_radius, radius):

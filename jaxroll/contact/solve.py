@@ -57,7 +57,7 @@ from .active_set import find_contact_set
 from .linear import GMRES, AbstractLinearSolver, Dense, check_linear_solver
 from .operator import WindowedCompliance
 from .precondition import CirculantPreconditioner
-from .smoothing import extrapolated_solve, smoothed_solve
+from .smoothing import continuation_solve, extrapolated_solve, smoothed_solve
 from .system import ContactSystem, flat
 
 __all__ = ["ContactSolution", "WarmStart", "solve_contact", "SAVED_FOR_DERIVATIVES"]
@@ -206,6 +206,7 @@ def solve_contact(
     linear_solver: AbstractLinearSolver = GMRES(),
     smoothing=None,
     smoothing_order: float | None = None,
+    continuation: bool = False,
 ) -> "ContactSolution":
     """Solve frictionless steady-state rolling contact of a rigid profile (any dimension).
 
@@ -262,6 +263,14 @@ def solve_contact(
             ``smoothing``. The ``2 eps`` solve, which only estimates the bias, stops at
             :data:`~jaxroll.contact.smoothing.PARTNER_TOL_FACTOR` times ``tol`` (at most
             :data:`~jaxroll.contact.smoothing.PARTNER_TOL_MAX`; ``R_r`` moves by ~2e-8 relative).
+        continuation: static; on a preconditioned 2D window, where the active-set search gives up
+            (after :data:`~jaxroll.contact.active_set.CONTINUE_AFTER` steps, or at a fragmented
+            set: a loss-dominated contact, on which the primal-dual update does not contract), the
+            search starts again from the smoothed edge's continuation
+            (:func:`~jaxroll.contact.smoothing.continuation_solve`) and confirms its set. The same
+            solution (to the tolerance), in a fraction of the steps there (SLS f = 1000 on a
+            half-space, 32 cells per radius: 1.1 s instead of 91 s); a larger program (about 3 s
+            more to compile, measured on the default sphere point), so off by default.
     Never raises on a failed solve: the reason is in ``ContactSolution.result``.
 
     Returns:
@@ -293,7 +302,7 @@ def solve_contact(
         value = check_input(value, ~(value > 0), "the load must be positive")
     return _solve_contact(compliance, h, value, None if penetration_mode else jnp.asarray(cell_area, dtype=float),
                           initial_contact, warm, smoothing, penetration_mode=penetration_mode, tol=tol,
-                          max_steps=max_steps, solver=solver, order=smoothing_order)
+                          max_steps=max_steps, solver=solver, order=smoothing_order, continuation=continuation)
 
 
 def _start(h, value, penetration_mode, initial_contact, warm_start):
@@ -317,7 +326,8 @@ def _start(h, value, penetration_mode, initial_contact, warm_start):
 @eqx.filter_jit
 def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, warm, smoothing, *,
                    penetration_mode: bool, tol: float, max_steps: int,
-                   solver: AbstractLinearSolver, order: float | None = None) -> ContactSolution:
+                   solver: AbstractLinearSolver, order: float | None = None,
+                   continuation: bool = False) -> ContactSolution:
     system = ContactSystem.build(compliance, h, value, cell_area, mask0, penetration_mode)
     fixed = system.stopped()
     precond = CirculantPreconditioner.build(compliance, fixed) if solver.preconditioned else None
@@ -331,7 +341,32 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         x_init = jnp.where(warm.valid, sg(flat(jnp.where(mask0, warm.pressure, 0.0) / fixed.p_s,
                                                warm.penetration / fixed.g_s)), x_init)
     def exact(_):
-        return find_contact_set(fixed, mask0, x_init, solver, active_set_precond, tol=tol, max_steps=max_steps)
+        search = functools.partial(find_contact_set, fixed, solver=solver, precond=active_set_precond, tol=tol,
+                                   max_steps=max_steps)
+        if not continuation or precond is None or len(fixed.shape) != 2:
+            return search(mask0, x_init)[:6]
+
+        # where the search gives up (a loss-dominated contact), it starts again from the smoothed
+        # edge's continuation. Two phases of one scan: one copy of the search in the program (half
+        # the compile of a second); a phase (or a batch's lane) with nothing to do takes no step
+        def phase(carry, again):
+            gave_up = carry[-1]
+            # from the search's last solve (its penetration is the set's: the initial one's d = 0
+            # left the soft minimum without a gap to close on a 30 mm layer at 0.1 m/s, f = 1000);
+            # where the continuation ends non-finite the search goes on from where it gave up
+            x_c, contact, n_c = continuation_solve(fixed, carry[1], solver, precond, active=again & gave_up,
+                                                   robust=carry[4])
+            ok = again & jnp.all(jnp.isfinite(x_c))
+            start = (jnp.where(ok, contact, jnp.where(again, carry[0], mask0)),
+                     jnp.where(ok, jnp.where(flat(contact, jnp.asarray(True)), x_c, 0.0),
+                               jnp.where(again, carry[1], x_init)))
+            out = search(*start, give_up=~again, active=~again | gave_up)
+            out = (*out[:2], carry[2] + n_c + out[2], *out[3:6], out[6] & ~again)
+            return jax.tree_util.tree_map(lambda a, b: jnp.where(~again | gave_up, a, b), out, carry), None
+
+        kinds = jax.eval_shape(lambda: search(mask0, x_init))
+        init = jax.tree_util.tree_map(lambda k: jnp.zeros(k.shape, k.dtype), kinds)
+        return jax.lax.scan(phase, init, jnp.asarray([False, True]))[0][:6]
 
     if smoothing is not None and warm is not None:
         # a smoothed start (WarmStart.smoothed) begins the damped Newton iteration itself: no exact solve

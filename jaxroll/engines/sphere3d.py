@@ -320,7 +320,7 @@ class SphereSolution(eqx.Module):
 
 def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e-10, max_steps=50,
           edge_smoothing=None, edge_order=None, init=None,
-          linear_solver=_contact.GMRES()) -> SphereSolution:
+          linear_solver=_contact.GMRES(), continuation=False) -> SphereSolution:
     """Solve the rolling contact of a rigid sphere (radius ``R`` [m], load ``P`` [N]) on the
     window of ``grid`` with the operators ``kernel`` (:func:`kernel_builder`); ``r_est`` [m] is
     the contact radius estimate the grid counts its cells on (:func:`jaxroll.grids.counting_size`;
@@ -335,7 +335,8 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
     ``a -> 0`` or ``kappa -> 0``. ``edge_order``: ``None`` or the order ``q`` of that bias
     (``~ kappa^q``): the smoothed solutions at ``kappa`` and ``2 kappa`` are combined by
     Richardson extrapolation (``smoothing_order`` of :func:`jaxroll.contact.solve_contact`),
-    which removes most of the bias and stays smooth.
+    which removes most of the bias and stays smooth. ``continuation``: static, the contact search's
+    fallback for loss-dominated contacts (``continuation`` of :func:`jaxroll.contact.solve_contact`).
     """
     W = grid.window
     dx = grid.spacing
@@ -347,7 +348,7 @@ def solve(kernel: _contact.WindowKernel, grid: FixedGrid, R, P, r_est, *, tol=1e
         kernel.compliance, h, P, dx * dx, initial_contact=guess, warm_start=init, tol=tol,
         max_steps=max_steps, linear_solver=linear_solver,
         smoothing=_contact.edge_gap_scale(edge_smoothing, dx, r_est, R),
-        smoothing_order=edge_order,
+        smoothing_order=edge_order, continuation=continuation,
     )
     p = sol.pressure
     moment = jnp.sum(p * X) * dx * dx / R
