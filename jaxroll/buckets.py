@@ -107,7 +107,7 @@ def evaluate_buckets(method, material, layer, radius, loads, speeds, geometry="s
         buckets = method.grid.buckets(material, layer, radius, loads, speeds, geometry)
     lengths = class_lengths([g.window for g, _ in buckets], [len(i) for _, i in buckets])
     for (grid, idx), length in zip(buckets, lengths):
-        m = eqx.tree_at(lambda x: x.grid, method, grid)
+        m = method.on_grid(grid).for_points(material, layer, radius, loads[idx], speeds[idx], geometry)
         m.check_memory(geometry)
         idx = idx[np.argsort(speeds[idx], kind="stable")]
         pad, count = padded(idx, length)

@@ -232,13 +232,13 @@ def _map_buckets(method, material, shift, layer, radius, P, T, V, Vr, geometry) 
     reduced = _reduced(method, layer)
     everything = np.arange(T.size)
     if method.needs_resolution(geometry) and reduced:
-        out = [(eqx.tree_at(lambda m: m.grid, method, g), idx, reduced)
+        out = [(method.on_grid(g).for_points(material, layer, radius, P[idx], Vr[idx], geometry), idx, reduced)
                for g, idx in method.grid.buckets(material, layer, radius, P, Vr, geometry)]
     elif method.needs_resolution(geometry):
-        out = [(eqx.tree_at(lambda m: m.grid, method, union([
-            method.resolve(*models_at(material, shift, layer, Ti), radius=radius, loads=np.unique(P),
-                           speeds=jnp.asarray(np.unique(V)), geometry=geometry).grid
-            for Ti in (float(np.min(T)), float(np.max(T)))])), everything, reduced)]
+        resolved = [method.resolve(*models_at(material, shift, layer, Ti), radius=radius, loads=np.unique(P),
+                                   speeds=jnp.asarray(np.unique(V)), geometry=geometry)
+                    for Ti in (float(np.min(T)), float(np.max(T)))]
+        out = [(method.on_grid(union([r.grid for r in resolved]), resolved), everything, reduced)]
     else:
         out = [(method, everything, reduced)]
     for m, _, _ in out:

@@ -196,6 +196,17 @@ class _GridMethod(AbstractMethod):
     def uses_grid(self, geometry):
         return True
 
+    def on_grid(self, grid, resolved=()) -> "_GridMethod":
+        """This method on ``grid`` (e.g. the union of several resolved grids), with the static
+        options that ``resolved`` (this method resolved for parts of the envelope) chose."""
+        return eqx.tree_at(lambda m: m.grid, self, grid)
+
+    def for_points(self, material, layer, radius, loads, speeds, geometry="sphere") -> "_GridMethod":
+        """This method with the static options it would resolve for the points ``(loads[i],
+        speeds[i])`` (concrete), for callers that size grids themselves (a map's buckets): none
+        here (see :meth:`Full.for_points`)."""
+        return self
+
 
 class DirectElastic(_GridMethod):
     """The direct method of [ZG] sec. 4 with the exact static elastic contact pressure: the
@@ -259,12 +270,13 @@ class Full(_GridMethod):
         linear_solver: the linear solver of the contact-set systems
             (:class:`jaxroll.contact.GMRES`, default, or :class:`jaxroll.contact.Dense`).
         continuation: sphere only: where the contact's active-set search gives up (a
-            loss-dominated contact: the set fragments, or 12 steps pass), start it again from the
+            loss-dominated contact: the set fragments, or 16 steps pass), start it again from the
             smoothed edge's continuation (``continuation`` of :func:`jaxroll.contact.solve_contact`:
-            the same solution, SLS f = 1000 at 32 cells per radius in 1.1 s instead of 91 s, for
-            about 3 s more compilation). ``None`` (default): on where an :class:`~jaxroll.grids.AutoGrid`
-            is sized for an envelope with a loss-dominated point (:func:`jaxroll.grids.loss_dominated_points`),
-            off otherwise (a :class:`~jaxroll.grids.FixedGrid`).
+            the same solution, SLS f = 1000 at 32 cells per radius in 1.0-1.15 s instead of 91 s,
+            for about 3 s more compilation). ``None`` (default): on where an
+            :class:`~jaxroll.grids.AutoGrid` is sized for an envelope with a loss-dominated point
+            (:func:`jaxroll.grids.loss_dominated_points`; also a map's per-class grids and the
+            CLI's sweep), off otherwise (a :class:`~jaxroll.grids.FixedGrid`).
     """
 
     #: Largest estimated relative error of a valid result: ``truncation`` bounds the error of
@@ -307,11 +319,24 @@ class Full(_GridMethod):
             return self
         rule = self.grid.sphere if geometry == "sphere" else self.grid.line
         out = eqx.tree_at(lambda m: m.grid, self, rule(material, layer, radius, loads, speeds, model="full"))
-        if geometry != "sphere" or self.continuation is not None:
-            return out
         P, V = (x.ravel() for x in np.meshgrid(np.ravel(loads), np.ravel(speeds), indexing="ij"))
-        lossy = loss_dominated_points(material, layer, radius, P, V, geometry)
-        return dataclasses.replace(out, continuation=bool(np.any(lossy)))
+        return out.for_points(material, layer, radius, P, V, geometry)
+
+    def for_points(self, material, layer, radius, loads, speeds, geometry="sphere"):
+        """With ``continuation`` ``None`` on a sphere: ``True`` where any point ``(loads[i],
+        speeds[i])`` (concrete) is loss-dominated (:func:`jaxroll.grids.loss_dominated_points`),
+        else ``False``; otherwise unchanged."""
+        if geometry != "sphere" or self.continuation is not None:
+            return self
+        material, layer = models(material, layer)
+        lossy = loss_dominated_points(material, layer, radius, loads, speeds, geometry)
+        return dataclasses.replace(self, continuation=bool(np.any(lossy)))
+
+    def on_grid(self, grid, resolved=()):
+        out = super().on_grid(grid, resolved)
+        if self.continuation is not None or not resolved:
+            return out
+        return dataclasses.replace(out, continuation=any(bool(r.continuation) for r in resolved))
 
     def _solve(self, model, kernel, R, P, size, init=None):
         extra = {"continuation": bool(self.continuation)} if _engine_name(model) == "sphere3d" else {}

@@ -54,6 +54,9 @@ TURN_EDGE_FRACTION = 0.125
 #: converge (27-60 steps where they took more than this). Searches that converge before it (the
 #: reference table: at most 4 steps) are unchanged. 1D windows keep the full update (there an edge
 #: walks a cell per step on thin layers, 144 steps at 400 cells, which alternation would double).
+#: These counts are the plain search's (``continuation=False``); a search that gives up
+#: (:data:`CONTINUE_AFTER`) stops before this, and the damped update serves the search that follows
+#: the continuation.
 DAMPED_AFTER = 16
 #: A 2D search with ``give_up`` stops (:func:`find_contact_set`) after :data:`CONTINUE_AFTER`
 #: steps, or at a step whose set has more than :data:`FRAGMENTED_EDGE` times the edge cells of a
@@ -63,12 +66,14 @@ DAMPED_AFTER = 16
 #: rolling direction) the primal-dual update is not a contraction: from the initial disc the first
 #: step scatters cells of negative pressure over the set (edge ratio 2.8-4.7 at SLS f = 300-1000,
 #: half-space, 10 mm/s, 8-32 cells per radius). Some searches recover (f = 1000 at 8 cells: the
-#: ratio below 2 at the fourth step, converged in 8 steps, 0.03 s; given up, 0.15 s), most
+#: ratio below 2 at the fourth step, converged in 8 steps, 0.03 s; given up, 0.09 s), most
 #: fine ones do not (f = 1000 at 12 / 16 / 32 cells: 61 / 67 / 162 steps, the last 91 s), and
 #: the fragmented steps are the expensive ones: at 32 cells, given up at the first step 1.1 s,
 #: at the second 5.4 s, at the fourth 7.1 s (benchmarks/LOG.md, 2026-12-08). The reference
 #: table's searches take at most 4 steps on compact sets (ratio ~1); a search that does not
-#: fragment but still wanders gives up after :data:`CONTINUE_AFTER` steps.
+#: fragment but still wanders gives up after :data:`CONTINUE_AFTER` loose steps. A search
+#: continued this way counts its steps afresh: at most 16 search steps, 6 x
+#: :data:`~jaxroll.contact.smoothing.CONTINUATION_LEVEL_STEPS` Newton steps, then ``2 max_steps``.
 CONTINUE_AFTER = 16
 FRAGMENTED_EDGE = 2.0
 
@@ -110,7 +115,7 @@ def active_set_loop(step, state0, aux0, max_steps):
 
 
 def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, max_steps, give_up=False,
-                     active=True):
+                     active=True, robust=False):
     """The converged contact set of ``system`` (on ``stop_gradient`` data) and its solution.
 
     Two phases in one loop: the set is found with loose linear solves (relative residual
@@ -133,9 +138,11 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
         precond: ``mask -> M`` or a pair ``(M_cheap, M_whole)`` (or ``None``-returning) for the
             active-set systems.
         give_up: ``False`` (static), or a bool (traced allowed): where true, on a 2D window, stop
-            after :data:`CONTINUE_AFTER` steps or at a fragmented set (:data:`FRAGMENTED_EDGE`),
-            and say so (the caller continues
-            the search another way). active: traced bool; where false, no step is taken (a batch's lanes).
+            after :data:`CONTINUE_AFTER` loose steps or at a fragmented set
+            (:data:`FRAGMENTED_EDGE`), and say so (the caller continues the search another way).
+            active: traced bool; where false, no step is taken (a batch's lanes).
+            robust: traced bool, the start of the ``robust`` flag below (a search continued from an
+            earlier one that needed the robust preconditioner starts with it).
 
     Returns:
         ``(mask, x, iterations, converged, robust, gap, gave_up)``; ``robust``: whether a linear solve needed
@@ -170,14 +177,14 @@ def find_contact_set(system: ContactSystem, mask0, x0, solver, precond, *, tol, 
             size = jnp.maximum(jnp.sum(new, dtype=float), 1.0)
             disc_edge = 2.0 * jnp.sqrt(jnp.pi * size)
             fragmented = jnp.sum(_edge_cells(new), dtype=float) > FRAGMENTED_EDGE * disc_edge
-            stop = fragmented | (k + 1 >= CONTINUE_AFTER)
+            stop = fragmented | ((k + 1 >= CONTINUE_AFTER) & ~is_strict)  # a strict step confirms: let it
             stop = stop & jnp.any(new != mask) & give_up
             new, turn = jnp.where(stop, mask, new), turn & ~stop
         return (new, is_strict | turn), (x, k + 1, robust, gap, stop)
 
     (mask, _), (x, _, robust, gap, stopped), iters, done = active_set_loop(
         step, (mask0, jnp.asarray(loose <= strict)),
-        (x0, jnp.asarray(0), jnp.asarray(False), jnp.zeros(system.shape), jnp.asarray(False)),
+        (x0, jnp.asarray(0), jnp.asarray(robust), jnp.zeros(system.shape), jnp.asarray(False)),
         jnp.where(active, 2 * max_steps, 0))
     sg = jax.lax.stop_gradient
     return sg(mask), sg(x), iters, done & ~stopped, robust, sg(gap), stopped

@@ -62,13 +62,14 @@ PARTNER_TOL_MAX = 1e-5
 
 #: Gap scales of :func:`continuation_solve`'s levels, in units of the system's gap scale ``g_s``
 #: (the gap that the mean pressure of the initial contact set closes over one cell), a factor 4
-#: apart. At the first the soft minimum blurs the edge over the whole initial set, and the
-#: damped Newton iteration converges from the uniform start; each later level starts from the
-#: one before; at the last the cells where the gap condition dominates are the exact contact set
-#: to within a few cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space,
-#: R = 2 cm, 100 N, 10 mm/s, 32 cells per radius): 33 Newton steps over the six levels, then 3
-#: active-set steps, 1.5 s, where the active-set search alone took 162 steps and 91 s (the same
-#: R_r to 1e-14; benchmarks/LOG.md). From 1 (three levels fewer) the first level took 37-51 steps.
+#: apart. At the first the soft minimum blurs the edge over several cells and the damped Newton
+#: iteration converges from the active-set search's last solve; each later level starts from the
+#: one before; at the last the cells where the gap condition dominates are the exact contact set to
+#: within a few cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space,
+#: R = 2 cm, 100 N, 10 mm/s, 32 cells per radius; a patched script, benchmarks/LOG.md 2026-12-08):
+#: 33 Newton steps over the six levels, then 3 active-set steps, 1.5 s, where the active-set
+#: search alone took 162 steps and 91 s (the same R_r to 1e-13); in the library 1.0-1.15 s.
+#: Starting at 1 (two levels fewer) the first level took 51 Newton steps; at 4, 37.
 CONTINUATION_LEVELS = 16.0 * 0.25 ** np.arange(6.0)
 #: Scaled residual at which a level of :func:`continuation_solve` passes to the next (the exact
 #: search that follows decides the set to ``tol``).
@@ -122,7 +123,7 @@ def _jacobian(system: ContactSystem, a, gt, eps, precond: CirculantPreconditione
     return matvec, preconditioner
 
 
-def _newton_step(fixed: ContactSystem, x, res, eps_t, solver, precond, tol, robust, one_level=False):
+def _newton_step(fixed: ContactSystem, x, res, eps_t, solver, precond, tol, robust):
     """One damped Newton step on the soft-min residual at the scaled gap scale ``eps_t``:
     ``(x, (F, a, g~)) -> (x', (F', a', g~'))``, the iterate carrying its residual and soft-min
     arguments. The gap is affine in ``x``, so the trial steps' gaps are ``g~ + alpha C(step)``: one
@@ -134,10 +135,7 @@ def _newton_step(fixed: ContactSystem, x, res, eps_t, solver, precond, tol, robu
     # term |F|) keeps the convergence quadratic at a fraction of the Krylov iterations of a
     # solve at 1e-3 tol; the stopping tests are on the residual F itself
     rtol = jnp.clip(jnp.max(jnp.abs(F)), tol * 1e-3, NEWTON_FORCING_MAX)
-    if one_level:  # one Krylov loop on the robust level (solve_derivative): less to compile
-        step = solver.solve_derivative(mv, -F, M(False), rtol)
-    else:
-        step = solver.solve_tracked(mv, -F, None, M(False), rtol, robust)[0]
+    step = solver.solve_tracked(mv, -F, None, M(False), rtol, robust)[0]
     s_p = step[:-1].reshape(fixed.shape)
     d_gap = fixed.compliance(s_p) * (fixed.p_s / fixed.g_s) - step[-1]  # the gap's change per unit step
     trials = jax.vmap(lambda al: _trial(fixed, x, a, gt, step, d_gap, al, eps_t))(jnp.asarray(_ALPHAS))
@@ -229,9 +227,9 @@ def continuation_solve(fixed: ContactSystem, x0, solver, precond, *, active, rob
     the next level's residual comes from the same soft-min arguments (no operator application).
 
     Args:
-        fixed: the stopped system; x0: the start (scaled unknowns, e.g. the uniform pressure on
-            the initial set). active: traced bool; where false, no step is taken (a batch's lanes
-            that need no continuation cost one operator application).
+        fixed: the stopped system; x0: the start (scaled unknowns: the active-set search's last
+            solve; its negative pressures are clipped to 0). active: traced bool; where false, no
+            step is taken (a batch's lanes that need no continuation cost one operator application).
         solver, precond: as :func:`smoothed_solve`.
 
     Returns:
@@ -246,8 +244,7 @@ def continuation_solve(fixed: ContactSystem, x0, solver, precond, *, active, rob
 
     def body(state):
         x, (F, a, gt), level, at_level, steps = state
-        x, (F, a, gt) = _newton_step(fixed, x, (F, a, gt), levels[level], solver, precond, CONTINUATION_TOL, robust,
-                                    one_level=False)
+        x, (F, a, gt) = _newton_step(fixed, x, (F, a, gt), levels[level], solver, precond, CONTINUATION_TOL, robust)
         passed = (jnp.max(jnp.abs(F)) <= CONTINUATION_TOL) | (at_level + 1 >= CONTINUATION_LEVEL_STEPS)
         nxt = jnp.minimum(level + 1, levels.size - 1)
         F = jnp.where(passed & (level + 1 < levels.size), at(a, gt, F[-1], levels[nxt]), F)

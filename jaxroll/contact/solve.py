@@ -350,22 +350,23 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
         # edge's continuation. Two phases of one scan: one copy of the search in the program (half
         # the compile of a second); a phase (or a batch's lane) with nothing to do takes no step
         def phase(carry, again):
-            gave_up = carry[-1]
-            # from the search's last solve (its penetration is the set's: the initial one's d = 0
+            mask, x, iters, _, robust, _, gave_up = carry
+            # from the search's last solve (its penetration is the set's: the initial set's d = 0
             # left the soft minimum without a gap to close on a 30 mm layer at 0.1 m/s, f = 1000);
-            # where the continuation ends non-finite the search goes on from where it gave up
-            x_c, contact, n_c = continuation_solve(fixed, carry[1], solver, precond, active=again & gave_up,
-                                                   robust=carry[4])
+            # where the continuation ends non-finite the search goes on from where it gave up (or
+            # from the start, if that was non-finite too)
+            x_c, contact, n_c = continuation_solve(fixed, x, solver, precond, active=again & gave_up, robust=robust)
             ok = again & jnp.all(jnp.isfinite(x_c))
-            start = (jnp.where(ok, contact, jnp.where(again, carry[0], mask0)),
+            resume = again & ~ok & jnp.all(jnp.isfinite(x))
+            start = (jnp.where(ok, contact, jnp.where(resume, mask, mask0)),
                      jnp.where(ok, jnp.where(flat(contact, jnp.asarray(True)), x_c, 0.0),
-                               jnp.where(again, carry[1], x_init)))
-            out = search(*start, give_up=~again, active=~again | gave_up)
-            out = (*out[:2], carry[2] + n_c + out[2], *out[3:6], out[6] & ~again)
+                               jnp.where(resume, x, x_init)))
+            out = search(*start, give_up=~again, active=~again | gave_up, robust=again & robust)
+            out = (*out[:2], iters + n_c + out[2], *out[3:6], out[6] & ~again)
             return jax.tree_util.tree_map(lambda a, b: jnp.where(~again | gave_up, a, b), out, carry), None
 
-        kinds = jax.eval_shape(lambda: search(mask0, x_init))
-        init = jax.tree_util.tree_map(lambda k: jnp.zeros(k.shape, k.dtype), kinds)
+        false = jnp.asarray(False)
+        init = (mask0, x_init, jnp.asarray(0), false, false, jnp.zeros(fixed.shape), false)
         return jax.lax.scan(phase, init, jnp.asarray([False, True]))[0][:6]
 
     if smoothing is not None and warm is not None:

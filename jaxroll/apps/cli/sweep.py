@@ -6,7 +6,6 @@ import argparse
 import time
 from pathlib import Path
 
-import equinox as eqx
 import numpy as np
 
 from ...geometry import Geometry
@@ -75,11 +74,11 @@ def run(args) -> int:
         # one grid for the whole sweep: the union of the grids of the corners of the other axes
         corners = [axes.get(k, [base[k]]) for k in ("H", "G0", "tau", "f", "R")]
         loads, speeds = axes.get("P", [base["P"]]), axes.get("V", [base["V"]])
-        grids = []
+        resolved = []
         for H, G0, tau, f, R in itertools.product(*[(min(c), max(c)) for c in corners]):
             mat, lay = models({"H": H, "G0": G0, "tau": tau, "f": f})
-            grids.append(method.resolve(mat, lay, radius=R, loads=loads, speeds=speeds, geometry=args.geometry).grid)
-        method = eqx.tree_at(lambda m: m.grid, method, union(grids))
+            resolved.append(method.resolve(mat, lay, radius=R, loads=loads, speeds=speeds, geometry=args.geometry))
+        method = method.on_grid(union([r.grid for r in resolved]), resolved)
 
     def one(p):
         v = {k: getattr(p, k) if k in axes else base[k] for k in base}
