@@ -22,6 +22,8 @@ user's ``jax.jit``, ``jax.vmap``, ``jax.grad``) the same checks run inside the p
 
 from __future__ import annotations
 
+import sys
+import time
 import warnings
 
 import equinox as eqx
@@ -200,7 +202,7 @@ def rolling_resistance(material, layer=None, *, radius, load, speed, geometry="s
 
 
 def rolling_resistance_grid(material, layer=None, *, radius, loads, speeds, geometry="sphere", method=None,
-                            throw=False) -> RollingResult:
+                            throw=False, progress=False) -> RollingResult:
     """Rolling resistance on the table ``speeds x loads`` (the paper's "reference case").
 
     Same arguments as :func:`rolling_resistance`, with ``loads`` [N or N/m] and ``speeds``
@@ -210,6 +212,13 @@ def rolling_resistance_grid(material, layer=None, *, radius, loads, speeds, geom
     table. ``throw=False`` by default: a table keeps going past a bad point, whose reason is in
     ``result`` (an eager call warns with the count per reason).
 
+    ``progress``: ``False`` (default), ``True`` (a line on stderr after each block of speeds: done,
+    total, seconds) or a callable ``progress(speeds_done, speeds_total)``, for long tables
+    (a loss-dominated material on a fine grid: minutes). The table is then solved in
+    :data:`GRID_PROGRESS_BLOCKS` blocks of speeds by one compiled program (the last block padded
+    with its last speed), each block's first speed from a cold start instead of the previous
+    speed's solution: the same values to the solver tolerance. Concrete inputs only.
+
     Returns:
         :class:`jaxroll.result.RollingResult` whose fields are ``(n_speeds, n_loads)`` arrays
         (pressure fields ``(n_speeds, n_loads, ...)``).
@@ -218,7 +227,47 @@ def rolling_resistance_grid(material, layer=None, *, radius, loads, speeds, geom
     if loads.ndim != 1 or speeds.ndim != 1 or loads.size == 0 or speeds.size == 0:
         raise ValueError(f"loads and speeds must be non-empty 1D arrays; got shapes {loads.shape} and {speeds.shape}")
     material, layer = models(material, layer)
+    if not (isinstance(progress, bool) or callable(progress)):
+        raise ValueError(f"progress must be a bool or a callable(done, total); got {progress!r}")
     method, traced = _prepare(method, material, layer, radius, loads, speeds, geometry)
-    res = _compilation_cache.call(_grid, method.dynamic(), material, layer, as_float(radius), loads, speeds, geometry,
-                                  traced)
+    if progress is False:
+        res = _compilation_cache.call(_grid, method.dynamic(), material, layer, as_float(radius), loads, speeds,
+                                      geometry, traced)
+    elif traced:
+        raise ValueError("rolling_resistance_grid: progress needs concrete inputs (it runs the table in blocks "
+                         "from the host); call it outside jit/vmap/grad, or with progress=False")
+    else:
+        res = _grid_in_blocks(method, material, layer, as_float(radius), loads, speeds, geometry, progress)
     return _finish(res, bool(throw), "rolling_resistance_grid")
+
+
+#: Blocks of speeds of :func:`rolling_resistance_grid` with ``progress`` (at most this many reports).
+GRID_PROGRESS_BLOCKS = 10
+
+
+def _grid_in_blocks(method, material, layer, radius, loads, speeds, geometry, progress) -> RollingResult:
+    """The table of :func:`_grid` (concrete inputs) in blocks of speeds of one length (one
+    program), reporting after each block (``progress``: ``True``, a line on stderr, or a callable
+    ``(done, total)``)."""
+    n = speeds.shape[0]
+    k = -(-n // GRID_PROGRESS_BLOCKS)
+    padded = jnp.concatenate([speeds, jnp.repeat(speeds[-1:], -n % k)])
+    t0, parts = time.perf_counter(), []
+    for i in range(0, padded.shape[0], k):
+        part = jax.device_get(_compilation_cache.call(_grid, method.dynamic(), material, layer, radius, loads,
+                                                      padded[i:i + k], geometry, False))
+        parts.append(part)
+        done = min(i + k, n)
+        if progress is True:
+            end = "\n" if done == n else ""
+            sys.stderr.write(f"\rrolling_resistance_grid: {done}/{n} speeds, {time.perf_counter() - t0:.1f} s{end}")
+            sys.stderr.flush()
+        else:
+            progress(done, n)
+
+    def joined(*leaves):  # every field of a table has the speeds first (the docstring above)
+        if any(np.ndim(x) == 0 or np.shape(x)[0] != k for x in leaves):
+            raise AssertionError("a table field without the speed axis first")
+        return jnp.asarray(np.concatenate(leaves)[:n])
+
+    return jax.tree_util.tree_map(joined, *parts)

@@ -340,3 +340,37 @@ def test_solution_part_only_on_grid_models():
     dx = float(sol.grid[1] - sol.grid[0])
     assert float(jnp.sum(sol.pressure)) * dx == pytest.approx(1e4, rel=1e-8)
     assert float(sol.penetration) > 0 and int(sol.iterations) >= 1
+
+
+def test_a_long_table_reports_its_progress_and_keeps_its_values():
+    """``rolling_resistance_grid(progress=...)`` solves the table in blocks of speeds and reports
+    after each: the callable sees every block (done, total) up to the whole table, and the values
+    are the one-shot table's (the full 2D cylinder: each block's first speed from a cold start
+    instead of the previous speed's solution, the same contact problems: equal to the solver
+    tolerance, 1e-9 allowed; the direct method: no iteration, equal to rounding). ``True`` writes
+    a line on stderr; traced inputs and a bad value raise."""
+    import contextlib
+    import io
+    import warnings
+
+    warnings.simplefilter("ignore", jr.ValidityWarning)  # the direct cylinder is not valid here: only plumbing
+    mat, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(0.03)
+    speeds, loads = np.geomspace(1e-3, 1.0, 13), np.array([2e3, 5e3])
+    kw = dict(radius=0.02, loads=loads, speeds=speeds, geometry="cylinder")
+    for method, rtol in ((jr.Full(), 1e-9), (jr.Direct(), 1e-13)):
+        whole = jr.rolling_resistance_grid(mat, layer, method=method, **kw)
+        seen = []
+        blocks = jr.rolling_resistance_grid(mat, layer, method=method, progress=lambda d, t: seen.append((d, t)), **kw)
+        assert seen == [(d, 13) for d in (2, 4, 6, 8, 10, 12, 13)], seen
+        assert blocks.value.shape == whole.value.shape == (13, 2)
+        np.testing.assert_allclose(np.asarray(blocks.value), np.asarray(whole.value), rtol=rtol)
+        np.testing.assert_array_equal(np.asarray(blocks.result), np.asarray(whole.result))
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        jr.rolling_resistance_grid(mat, layer, method=jr.Direct(), progress=True, **kw)
+    assert "13/13 speeds" in err.getvalue()
+    with pytest.raises(ValueError, match="progress"):
+        jr.rolling_resistance_grid(mat, layer, method=jr.Direct(), progress="yes", **kw)
+    with pytest.raises(ValueError, match="concrete"):
+        jax.jit(lambda G: jr.rolling_resistance_grid(jr.StandardLinearSolid(G, 0.25, 1.0), layer,
+                                                     method=jr.Direct(), progress=True, **kw).value)(3e6)
