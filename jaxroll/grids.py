@@ -1095,7 +1095,8 @@ def loss_dominated_points(material, layer, radius, loads, speeds, geometry="sphe
 def _counting_and_window_sizes(material, layer, radius, load, speed, geometry):
     """:func:`counting_size` and the size [m] the window covers :data:`SPHERE_WINDOW_RADII` /
     :data:`LINE_WINDOW_RADII` of: the counting size with ``q`` = :data:`DYNAMIC_CONTACT_RATIO`
-    everywhere; and whether the point is loss-dominated (:func:`loss_dominated_points`). Where the material is loss-dominated the cells are counted on the smaller size
+    everywhere; and whether the point is loss-dominated (:func:`loss_dominated_points`). Where the
+    material is loss-dominated the cells are counted on the smaller size
     (:data:`LOSS_DOMINATED_CONTACT_RATIO`) and the window keeps its width in metres: with both
     on the smaller size the default cylinder at f = 1000 (5 kN/m, 0.1-0.3 m/s) reached the
     window's edge."""
