@@ -272,7 +272,7 @@ class Full(_GridMethod):
         continuation: sphere only: where the contact's active-set search gives up (a
             loss-dominated contact: the set fragments, or 16 steps pass), start it again from the
             smoothed edge's continuation (``continuation`` of :func:`jaxroll.contact.solve_contact`:
-            the same solution, SLS f = 1000 at 32 cells per radius in 1.0-1.15 s instead of 91 s,
+            the same solution, SLS f = 1000 at 32 cells per radius in 1.1 s instead of 86-91 s,
             for about 3 s more compilation). ``None`` (default): on where an
             :class:`~jaxroll.grids.AutoGrid` is sized for an envelope with a loss-dominated point
             (:func:`jaxroll.grids.loss_dominated_points`; also a map's per-class grids and the

@@ -264,30 +264,107 @@ def test_implicit_gradient_matches_finite_differences():
         assert g[i] == pytest.approx(fd, rel=1e-5)
 
 
-def test_2d_grid_hertz_sphere():
-    # The same solver on a 2D grid: elastic sphere on a half-space, 3D Hertz with E* = 4 G:
-    # a = (3 P R/(16 G))^(1/3), p0 = 3 P/(2 pi a^2).
+def _hertz_disc(cells_per_radius, window):
+    """A rigid sphere (R = 2 cm, P = 10 N) on an elastic half-space (G = 3 MPa; 3D Hertz radius
+    ``a = (3 P R/(16 G))^(1/3)``), on a square window of ``window`` cells of ``a/cells_per_radius``
+    in a period twice as long: ``(operator, profile h, X, Y, a, cell size, P)``."""
     G, R, P = 3e6, 0.02, 10.0
     a = (3 * P * R / (16 * G)) ** (1 / 3)
-    dx = a / 10
-    N, W = (64, 64), (32, 32)
-    L = (N[0] * dx, N[1] * dx)
+    dx = a / cells_per_radius
+    N, W = (2 * window,) * 2, (window,) * 2
 
     def T(qx, qy):
         q = jnp.sqrt(qx**2 + qy**2)
         pos = q > 0
         return jnp.where(pos, 1.0 / (2.0 * G * jnp.where(pos, q, 1.0)), 0.0).astype(complex)
 
-    op = ct.windowed_compliance(ct.periodic_kernel(T, L, N, images=3), N, W)
+    op = ct.windowed_compliance(ct.periodic_kernel(T, (N[0] * dx, N[1] * dx), N, images=3), N, W)
     xs = (jnp.arange(W[0], dtype=float) - 0.5 * (W[0] - 1)) * dx
     X, Y = jnp.meshgrid(xs, xs, indexing="ij")
-    sol = ct.solve_contact(op, (X**2 + Y**2) / (2 * R), P, dx * dx, initial_contact=X**2 + Y**2 < a**2)
+    return op, (X**2 + Y**2) / (2 * R), X, Y, a, dx, P
+
+
+def test_2d_grid_hertz_sphere():
+    # The same solver on a 2D grid: elastic sphere on a half-space, 3D Hertz with E* = 4 G:
+    # a = (3 P R/(16 G))^(1/3), p0 = 3 P/(2 pi a^2).
+    op, h, X, Y, a, dx, P = _hertz_disc(cells_per_radius=10, window=32)
+    sol = ct.solve_contact(op, h, P, dx * dx, initial_contact=X**2 + Y**2 < a**2)
     assert int(sol.result) == 0
     area = float(jnp.sum(sol.contact)) * dx * dx
     # tolerances: 10 cells per radius: contact area quantised to cells (~5 %), peak pressure
     # of a cell vs the continuum peak (~2 %)
     assert area == pytest.approx(np.pi * a * a, rel=0.06)
     assert float(sol.pressure.max()) == pytest.approx(3 * P / (2 * np.pi * a * a), rel=0.03)
+
+
+@pytest.mark.parametrize("penetration", [False, True])
+def test_elliptic_start_is_hertz_on_the_hertz_disc(penetration):
+    """``ContactSystem.elliptic_start`` (the continuation's cold start) on the 3D Hertz disc of an
+    elastic half-space is near the solved contact: its pressure has Hertz's shape and peak
+    ``3 P/(2 pi a^2)``, and the penetration that closes the set's mean gap is the solver's (the
+    periodic operator's displacement is zero-mean, so ``d`` is not Hertz's ``a^2/R``); in
+    penetration mode, given the solver's ``d``, the load is ``P``. Oracles: 3D Hertz (E* = 4 G)
+    and the active-set solve of the same problem."""
+    from jaxroll.contact.system import ContactSystem
+
+    op, h, X, Y, a, dx, P = _hertz_disc(cells_per_radius=10, window=32)
+    disc = X**2 + Y**2 < a**2
+    ref = ct.solve_contact(op, h, P, dx * dx, initial_contact=disc)
+    assert int(ref.result) == 0
+    system = ContactSystem.build(op, h, ref.penetration if penetration else P, dx * dx, disc, penetration)
+    p, d = system.unscale(jax.jit(lambda s, m: s.elliptic_start(m))(system, disc))
+    assert bool(jnp.all(p >= 0)) and bool(jnp.all(jnp.where(disc, True, p == 0)))
+    # the shape is Hertz's inside the disc: sqrt(r_max^2 - r^2) with r_max the outermost cell centre
+    # on the set, so off sqrt(a^2 - r^2) by the cell quantisation of the edge (measured 0.7 % up to
+    # 0.7 a at 10 cells per radius)
+    inner = X**2 + Y**2 < (0.7 * a) ** 2
+    shape = jnp.sqrt(jnp.maximum(1 - (X**2 + Y**2) / a**2, 0.0))
+    ratio = jnp.where(inner, p / jnp.where(inner, shape, 1.0), jnp.nan)
+    assert float(jnp.nanmax(ratio) / jnp.nanmin(ratio)) < 1.02
+    # tolerances: the same quantisation (measured: d 0.13 %, load 0.2 %, peak 1.2 % off, the
+    # solver's own peak 0.3 % off Hertz's)
+    if penetration:
+        assert float(d) == pytest.approx(float(ref.penetration), rel=1e-12)
+        assert float(jnp.sum(p)) * dx * dx == pytest.approx(P, rel=0.01)
+    else:
+        assert float(jnp.sum(p)) * dx * dx == pytest.approx(P, rel=1e-12)
+        assert float(d) == pytest.approx(float(ref.penetration), rel=0.01)
+        assert float(p.max()) == pytest.approx(3 * P / (2 * np.pi * a * a), rel=0.03)
+
+
+def test_continuation_ends_on_a_converged_level(monkeypatch):
+    """``smoothing.continuation_solve`` from the elliptic start of a disc 30 % wider than the 3D
+    Hertz contact (elastic half-space, 8 cells per radius): it returns an iterate that solves the
+    narrowest level's smoothed equations to ``CONTINUATION_TOL`` (measured 1.6e-12), whose
+    contact set is the active-set solver's (to the edge ring allowed; measured equal). With at
+    most 4 Newton steps per level (patched) some levels fail and are tried again from the last
+    converged one at half the step in log scale: it still ends on the narrowest level, in more
+    steps (measured 26 against 23)."""
+    from jaxroll.contact import smoothing
+    from jaxroll.contact.precondition import CirculantPreconditioner
+    from jaxroll.contact.system import ContactSystem
+
+    op, h, X, Y, a, dx, P = _hertz_disc(cells_per_radius=8, window=24)
+    disc = X**2 + Y**2 < (1.3 * a) ** 2  # a start 30 % too wide
+    ref = ct.solve_contact(op, h, P, dx * dx, initial_contact=disc)
+
+    def run():  # traced afresh at each call: the patched constant is read when traced
+        fixed = ContactSystem.build(op, h, P, dx * dx, disc, False).stopped()
+        solver = ct.GMRES().resolve(2)
+        x, contact, steps = smoothing.continuation_solve(
+            fixed, fixed.elliptic_start(disc), solver, CirculantPreconditioner.build(op, fixed), active=True)
+        F = smoothing._residual(fixed, x, 1.0, smoothing.CONTINUATION_LEVELS[-1])[0]
+        return contact, int(steps), float(jnp.max(jnp.abs(F)))
+
+    edge = 2 * np.sqrt(np.pi * int(jnp.sum(ref.contact)))  # the edge cells of a disc of its size
+    default = run()
+    monkeypatch.setattr(smoothing, "CONTINUATION_LEVEL_STEPS", 4)
+    patched = run()
+    for contact, steps, residual in (default, patched):
+        assert residual <= smoothing.CONTINUATION_TOL, (default[1:], patched[1:])
+        assert int(jnp.sum(contact != ref.contact)) <= edge, (default[1:], patched[1:])
+        assert steps <= smoothing.CONTINUATION_MAX_STEPS
+    assert patched[1] > default[1], (default[1:], patched[1:])
 
 
 # ------------------------------------------------------------------- penetration-controlled mode

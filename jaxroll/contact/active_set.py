@@ -72,8 +72,8 @@ DAMPED_AFTER = 16
 #: at the second 5.4 s, at the fourth 7.1 s (benchmarks/LOG.md, 2026-12-08). The reference
 #: table's searches take at most 4 steps on compact sets (ratio ~1); a search that does not
 #: fragment but still wanders gives up after :data:`CONTINUE_AFTER` loose steps. A search
-#: continued this way counts its steps afresh: at most 16 search steps, 6 x
-#: :data:`~jaxroll.contact.smoothing.CONTINUATION_LEVEL_STEPS` Newton steps, then ``2 max_steps``.
+#: continued this way counts its steps afresh: at most 16 search steps,
+#: :data:`~jaxroll.contact.smoothing.CONTINUATION_MAX_STEPS` Newton steps, then ``2 max_steps``.
 CONTINUE_AFTER = 16
 FRAGMENTED_EDGE = 2.0
 

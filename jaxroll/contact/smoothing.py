@@ -63,20 +63,24 @@ PARTNER_TOL_MAX = 1e-5
 #: Gap scales of :func:`continuation_solve`'s levels, in units of the system's gap scale ``g_s``
 #: (the gap that the mean pressure of the initial contact set closes over one cell), a factor 4
 #: apart. At the first the soft minimum blurs the edge over several cells and the damped Newton
-#: iteration converges from the active-set search's last solve; each later level starts from the
-#: one before; at the last the cells where the gap condition dominates are the exact contact set to
-#: within a few cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space,
-#: R = 2 cm, 100 N, 10 mm/s, 32 cells per radius; a patched script, benchmarks/LOG.md 2026-12-08):
-#: 33 Newton steps over the six levels, then 3 active-set steps, 1.5 s, where the active-set
-#: search alone took 162 steps and 91 s (the same R_r to 1e-13); in the library 1.0-1.15 s.
-#: Starting at 1 (two levels fewer) the first level took 51 Newton steps; at 4, 37.
+#: iteration converges from a smooth start; each later level starts from the one before; at the
+#: last the cells where the gap condition dominates are the exact contact set to within a few
+#: cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space, R = 2 cm,
+#: 100 N, 10 mm/s, 32 cells per radius; benchmarks/LOG.md 2026-12-08): 35 Newton steps over the
+#: six levels, then 3 active-set steps, 1.1 s, where the active-set search alone took 162 steps and
+#: 86-91 s (the same R_r to 1e-13). Starting at 1 (two levels fewer) the first level took 51
+#: Newton steps; at 4, 37. A fixed factor 4 failed on some warm-started table points (a level
+#: that did not converge in 20 steps, 100-200 steps in all), hence the halving.
 CONTINUATION_LEVELS = 16.0 * 0.25 ** np.arange(6.0)
 #: Scaled residual at which a level of :func:`continuation_solve` passes to the next (the exact
 #: search that follows decides the set to ``tol``).
 CONTINUATION_TOL = 1e-4
 #: Most damped Newton steps at one level of :func:`continuation_solve` (a level that has not
-#: converged by then passes its iterate on).
-CONTINUATION_LEVEL_STEPS = 20
+#: converged by then is tried again nearer the last converged one).
+CONTINUATION_LEVEL_STEPS = 12
+#: Most damped Newton steps of one :func:`continuation_solve` (the search that follows starts from
+#: the last converged level).
+CONTINUATION_MAX_STEPS = 120
 
 
 def _residual(system: ContactSystem, x, c0_ratio, eps):
@@ -218,44 +222,70 @@ def extrapolated_solve(system: ContactSystem, x_exact, eps, solver, precond, *, 
 
 
 def continuation_solve(fixed: ContactSystem, x0, solver, precond, *, active, robust=None):
-    """The smoothed edge continued from a wide soft minimum to a narrow one
-    (:data:`CONTINUATION_LEVELS`): the start of an exact search where the active-set iteration
-    does not contract (:func:`~jaxroll.contact.active_set.find_contact_set` gives up).
+    """The smoothed edge continued from a wide soft minimum to a narrow one: the start of an exact
+    search where the active-set iteration does not contract
+    (:func:`~jaxroll.contact.active_set.find_contact_set` gives up).
 
-    One ``while_loop`` over damped Newton steps (:func:`_newton_step`) and levels: a level passes
-    to the next at :data:`CONTINUATION_TOL` or after :data:`CONTINUATION_LEVEL_STEPS` steps, and
-    the next level's residual comes from the same soft-min arguments (no operator application).
+    One ``while_loop`` over damped Newton steps (:func:`_newton_step`) on a gap scale that
+    narrows from the first of :data:`CONTINUATION_LEVELS` to the last, a factor 4 per level. A
+    level that reaches :data:`CONTINUATION_TOL` passes its iterate to the next; one that has not
+    within :data:`CONTINUATION_LEVEL_STEPS` steps is tried again from the last converged iterate
+    at half the step in log scale (the first level, which has none, iterates on), and the step
+    grows back (to a factor 4) after each converged level. A new level's residual comes from the
+    same soft-min arguments (no operator application). At most :data:`CONTINUATION_MAX_STEPS`
+    steps.
 
     Args:
-        fixed: the stopped system; x0: the start (scaled unknowns: the active-set search's last
-            solve; its negative pressures are clipped to 0). active: traced bool; where false, no
+        fixed: the stopped system; x0: the start (scaled unknowns: a warm start's solution, or
+            :meth:`~jaxroll.contact.system.ContactSystem.elliptic_start` on the initial set; negative
+            pressures are clipped to 0). active: traced bool; where false, no
             step is taken (a batch's lanes that need no continuation cost one operator application).
         solver, precond: as :func:`smoothed_solve`.
 
     Returns:
-        ``(x, contact, steps)`` on ``stop_gradient`` data: the last level's iterate, its cells where
-        the gap condition dominates, and the Newton steps taken.
+        ``(x, contact, steps)`` on ``stop_gradient`` data: the last converged level's iterate (the
+        start if none converged), its cells where the gap condition dominates, and the Newton steps
+        taken.
     """
-    levels = jnp.asarray(CONTINUATION_LEVELS)
+    log_first, log_last = np.log(CONTINUATION_LEVELS[0]), np.log(CONTINUATION_LEVELS[-1])
+    log_ratio = np.log(CONTINUATION_LEVELS[1] / CONTINUATION_LEVELS[0])  # < 0
     pt0 = jnp.maximum(x0[:-1], 0.0)
     x0 = jnp.concatenate([pt0, x0[-1:]])
-    def at(a, gt, F_last, e):
+
+    def at(a, gt, F_last, log_e):
+        e = jnp.exp(log_e)
         return jnp.concatenate([(-e * jnp.logaddexp(-a / e, -gt / e)).ravel(), F_last[None]])
 
     def body(state):
-        x, (F, a, gt), level, at_level, steps = state
-        x, (F, a, gt) = _newton_step(fixed, x, (F, a, gt), levels[level], solver, precond, CONTINUATION_TOL, robust)
-        passed = (jnp.max(jnp.abs(F)) <= CONTINUATION_TOL) | (at_level + 1 >= CONTINUATION_LEVEL_STEPS)
-        nxt = jnp.minimum(level + 1, levels.size - 1)
-        F = jnp.where(passed & (level + 1 < levels.size), at(a, gt, F[-1], levels[nxt]), F)
-        return x, (F, a, gt), jnp.where(passed, level + 1, level), jnp.where(passed, 0, at_level + 1), steps + 1
+        x, (F, a, gt), log_e, at_level, ok, log_step, steps = state
+        x, (F, a, gt) = _newton_step(fixed, x, (F, a, gt), jnp.exp(log_e), solver, precond, CONTINUATION_TOL, robust)
+        passed = jnp.max(jnp.abs(F)) <= CONTINUATION_TOL
+        # the first level has no fallback: it iterates until it converges
+        failed = ~passed & (at_level + 1 >= CONTINUATION_LEVEL_STEPS) & ok[3]
+        # a converged level becomes the fallback and the scale narrows by a step that grows back
+        ok = jax.tree_util.tree_map(lambda new, old: jnp.where(passed, new, old),
+                                    (x, (a, gt, F[-1]), log_e, jnp.asarray(True)), ok)
+        log_step = jnp.where(passed, jnp.maximum(2.0 * log_step, log_ratio),
+                             jnp.where(failed, 0.5 * log_step, log_step))
+        # a failed level is tried again from the fallback, half as far from its scale
+        x = jnp.where(failed, ok[0], x)
+        a, gt, F_last = jax.tree_util.tree_map(lambda n, o: jnp.where(failed, o, n), (a, gt, F[-1]), ok[1])
+        log_e = jnp.where(passed, jnp.maximum(log_e + log_step, log_last),
+                          jnp.where(failed, ok[2] + log_step, log_e))
+        F = jnp.where(passed | failed, at(a, gt, F_last, log_e), F)
+        done = passed & (log_e == ok[2])  # converged at the last scale (the scale did not move)
+        log_e, at_level = jnp.where(done, jnp.inf, log_e), jnp.where(passed | failed, 0, at_level + 1)
+        return x, (F, a, gt), log_e, at_level, ok, log_step, steps + 1
 
     def cond(state):
-        x, _, level, _, _ = state
-        return active & (level < levels.size) & jnp.all(jnp.isfinite(x))
+        x, _, log_e, _, _, _, steps = state
+        return active & jnp.isfinite(log_e) & (steps < CONTINUATION_MAX_STEPS) & jnp.all(jnp.isfinite(x))
 
-    init = (x0, _residual(fixed, x0, 1.0, levels[0]), jnp.asarray(0), jnp.asarray(0), jnp.asarray(0))
-    x, (_, a, gt), _, _, steps = jax.lax.while_loop(cond, body, init)
+    F0, a0, gt0 = _residual(fixed, x0, 1.0, CONTINUATION_LEVELS[0])
+    ok0 = (x0, (a0, gt0, F0[-1]), jnp.asarray(log_first), jnp.asarray(False))  # (no level converged)
+    init = (x0, (F0, a0, gt0), jnp.asarray(log_first), jnp.asarray(0), ok0, jnp.asarray(log_ratio),
+            jnp.asarray(0))
+    _, _, _, _, (x, (a, gt, _), _, _), _, steps = jax.lax.while_loop(cond, body, init)
     sg = jax.lax.stop_gradient
     return sg(x), sg(gt < a), steps
 

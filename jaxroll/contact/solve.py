@@ -348,14 +348,22 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
 
         # where the search gives up (a loss-dominated contact), it starts again from the smoothed
         # edge's continuation. Two phases of one scan: one copy of the search in the program (half
-        # the compile of a second); a phase (or a batch's lane) with nothing to do takes no step
+        # the compile of a second); a phase (or a batch's lane) with nothing to do takes no step.
+        # The continuation's start: a warm start's solution, else a Hertz-shaped pressure on the
+        # initial set (not the search's last solve: on a loss-dominated contact its first solve
+        # peaks at 280 times the mean pressure, and from there no level converged in its 20 steps
+        # at 30-100 mm/s; benchmarks/LOG.md 2026-12-08, "The continuation's start")
+        x_cont = fixed.elliptic_start(mask0)
+        if warm is not None:
+            x_cont = jnp.where(warm.valid, x_init, x_cont)
+
         def phase(carry, again):
             mask, x, iters, _, robust, _, gave_up = carry
-            # from the search's last solve (its penetration is the set's: the initial set's d = 0
-            # left the soft minimum without a gap to close on a 30 mm layer at 0.1 m/s, f = 1000);
-            # where the continuation ends non-finite the search goes on from where it gave up (or
-            # from the start, if that was non-finite too)
-            x_c, contact, n_c = continuation_solve(fixed, x, solver, precond, active=again & gave_up, robust=robust)
+            # where the continuation ends non-finite (it returns its last converged level, or its
+            # start) the search goes on from where it gave up (or from the start, if that was
+            # non-finite too)
+            x_c, contact, n_c = continuation_solve(fixed, x_cont, solver, precond, active=again & gave_up,
+                                                   robust=robust)
             ok = again & jnp.all(jnp.isfinite(x_c))
             resume = again & ~ok & jnp.all(jnp.isfinite(x))
             start = (jnp.where(ok, contact, jnp.where(resume, mask, mask0)),

@@ -105,6 +105,28 @@ class ContactSystem(eqx.Module):
         """The right-hand side on the contact set ``mask``."""
         return jnp.concatenate([(-mask.astype(float) * self.profile / self.g_s).ravel(), self.target[None]])
 
+    def elliptic_start(self, mask):
+        """Scaled unknowns of a Hertz-shaped start on the set ``mask``: the pressure
+        ``~ sqrt(h_max - h)`` (``h_max`` the profile's largest value on the set; for a paraboloid
+        ``sqrt(a^2 - r^2)``), scaled to the load (load mode), and the penetration that closes the
+        set's mean gap (penetration mode: the pressure's scale closes it, at least 0). One operator
+        application. The start of :func:`jaxroll.contact.smoothing.continuation_solve` from a cold
+        set: unlike a solve on a set far from the contact's (a loss-dominated contact's first
+        active-set solve peaks at 280 times the mean pressure, benchmarks/LOG.md 2026-12-08), it
+        is positive and smooth."""
+        maskf = mask.astype(float)
+        h_max = jnp.max(jnp.where(mask, self.profile, -jnp.inf))
+        shape = maskf * jnp.sqrt(jnp.maximum(h_max - self.profile, 0.0))
+        shape = jnp.where(jnp.sum(shape) > 0, shape, maskf)  # a flat profile on the set: uniform
+        n = jnp.maximum(jnp.sum(maskf), 1.0)
+        base = jnp.sum(maskf * self.profile) / (n * self.g_s)  # mean of h/g_s on the set
+        lifted = jnp.sum(maskf * self.compliance(shape)) * (self.p_s / self.g_s) / n  # of C shape
+        if self.penetration_mode:
+            scale = jnp.maximum((self.target - base) / jnp.where(lifted > 0, lifted, 1.0), 0.0)
+            return flat(scale * shape, self.target)
+        scale = self.target / (self.load_weight * jnp.maximum(jnp.sum(shape), 1e-300))
+        return flat(scale * shape, base + scale * lifted)
+
     def unscale(self, x):
         """``(p [Pa], d [m])`` of the scaled unknowns."""
         return x[:-1].reshape(self.shape) * self.p_s, x[-1] * self.g_s
