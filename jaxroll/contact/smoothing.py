@@ -62,24 +62,28 @@ PARTNER_TOL_MAX = 1e-5
 
 #: Gap scales of :func:`continuation_solve`'s levels, in units of the system's gap scale ``g_s``
 #: (the gap that the mean pressure of the initial contact set closes over one cell), a factor 4
-#: apart. At the first the soft minimum blurs the edge over several cells and the damped Newton
-#: iteration converges from a smooth start; each later level starts from the one before; at the
-#: last the cells where the gap condition dominates are the exact contact set to within a few
-#: cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space, R = 2 cm,
-#: 100 N, 10 mm/s, 32 cells per radius; benchmarks/LOG.md 2026-12-08): 35 Newton steps over the
-#: six levels, then 3 active-set steps, 1.1 s, where the active-set search alone took 162 steps and
-#: 86-91 s (the same R_r to 1e-13). Starting at 1 (two levels fewer) the first level took 51
-#: Newton steps; at 4, 37. A fixed factor 4 failed on some warm-started table points (a level
-#: that did not converge in 20 steps, 100-200 steps in all), hence the halving.
+#: apart where no level fails (a failed one is retried nearer the one before). At the first the soft minimum blurs the edge over several cells
+#: and the damped Newton iteration converges from a smooth start; each later level starts from the
+#: one before; at the last the cells where the gap condition dominates are the exact contact set to
+#: within a few cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space,
+#: R = 2 cm, 100 N, 10 mm/s, 32 cells per radius; benchmarks/LOG.md 2026-12-08): 35 Newton steps
+#: over the six levels, then 3 active-set steps, 1.1 s, where the active-set search alone took 162
+#: steps and 86-91 s (the same R_r to 1e-13). (From the search's first solve, as first built,
+#: starting at 1 g_s instead of 16 the first level took 51 Newton steps; at 4, 37.)
 CONTINUATION_LEVELS = 16.0 * 0.25 ** np.arange(6.0)
 #: Scaled residual at which a level of :func:`continuation_solve` passes to the next (the exact
 #: search that follows decides the set to ``tol``).
 CONTINUATION_TOL = 1e-4
-#: Most damped Newton steps at one level of :func:`continuation_solve` (a level that has not
-#: converged by then is tried again nearer the last converged one).
+#: Most damped Newton steps at one level of :func:`continuation_solve` after the first (which has
+#: no converged level to fall back on and iterates on): a level that has not converged by then is
+#: tried again at half its step from the last converged one. Levels that converge took 3-7 steps
+#: (once 12 and once 17) in the cases of benchmarks/LOG.md 2026-12-08; those that did not, on
+#: warm-started table points with fixed levels a factor 4 apart, ran their 20 steps at max |F|
+#: 26-30 and every level after them failed too (150-200 steps in all, one 179 where the halved
+#: step takes 58).
 CONTINUATION_LEVEL_STEPS = 12
-#: Most damped Newton steps of one :func:`continuation_solve` (the search that follows starts from
-#: the last converged level).
+#: Most damped Newton steps of one :func:`continuation_solve` (six levels of 20 as first built;
+#: the search that follows starts from the last converged level).
 CONTINUATION_MAX_STEPS = 120
 
 
@@ -239,13 +243,14 @@ def continuation_solve(fixed: ContactSystem, x0, solver, precond, *, active, rob
         fixed: the stopped system; x0: the start (scaled unknowns: a warm start's solution, or
             :meth:`~jaxroll.contact.system.ContactSystem.elliptic_start` on the initial set; negative
             pressures are clipped to 0). active: traced bool; where false, no
-            step is taken (a batch's lanes that need no continuation cost one operator application).
+            step is taken (a batch's lanes that need no continuation cost an operator application
+            here and one for the start).
         solver, precond: as :func:`smoothed_solve`.
 
     Returns:
-        ``(x, contact, steps)`` on ``stop_gradient`` data: the last converged level's iterate (the
-        start if none converged), its cells where the gap condition dominates, and the Newton steps
-        taken.
+        ``(x, contact, steps, converged)`` on ``stop_gradient`` data: the last converged level's
+        iterate (the start if none converged), its cells where the gap condition dominates, the
+        Newton steps taken, and whether any level converged.
     """
     log_first, log_last = np.log(CONTINUATION_LEVELS[0]), np.log(CONTINUATION_LEVELS[-1])
     log_ratio = np.log(CONTINUATION_LEVELS[1] / CONTINUATION_LEVELS[0])  # < 0
@@ -257,37 +262,38 @@ def continuation_solve(fixed: ContactSystem, x0, solver, precond, *, active, rob
         return jnp.concatenate([(-e * jnp.logaddexp(-a / e, -gt / e)).ravel(), F_last[None]])
 
     def body(state):
-        x, (F, a, gt), log_e, at_level, ok, log_step, steps = state
+        x, (F, a, gt), log_e, at_level, fallback, log_step, steps, _ = state
         x, (F, a, gt) = _newton_step(fixed, x, (F, a, gt), jnp.exp(log_e), solver, precond, CONTINUATION_TOL, robust)
         passed = jnp.max(jnp.abs(F)) <= CONTINUATION_TOL
+        x_ok, soft_ok, log_ok, any_ok = fallback
         # the first level has no fallback: it iterates until it converges
-        failed = ~passed & (at_level + 1 >= CONTINUATION_LEVEL_STEPS) & ok[3]
-        # a converged level becomes the fallback and the scale narrows by a step that grows back
-        ok = jax.tree_util.tree_map(lambda new, old: jnp.where(passed, new, old),
-                                    (x, (a, gt, F[-1]), log_e, jnp.asarray(True)), ok)
+        failed = ~passed & (at_level + 1 >= CONTINUATION_LEVEL_STEPS) & any_ok
+        done = passed & (log_e == log_last)
+        # a converged level becomes the fallback, and the scale narrows by a step that grows back;
+        # a failed one is tried again from the fallback at half the step it took (so every scale
+        # lies between the fallback's and the last level's)
         log_step = jnp.where(passed, jnp.maximum(2.0 * log_step, log_ratio),
-                             jnp.where(failed, 0.5 * log_step, log_step))
-        # a failed level is tried again from the fallback, half as far from its scale
-        x = jnp.where(failed, ok[0], x)
-        a, gt, F_last = jax.tree_util.tree_map(lambda n, o: jnp.where(failed, o, n), (a, gt, F[-1]), ok[1])
-        log_e = jnp.where(passed, jnp.maximum(log_e + log_step, log_last),
-                          jnp.where(failed, ok[2] + log_step, log_e))
-        F = jnp.where(passed | failed, at(a, gt, F_last, log_e), F)
-        done = passed & (log_e == ok[2])  # converged at the last scale (the scale did not move)
-        log_e, at_level = jnp.where(done, jnp.inf, log_e), jnp.where(passed | failed, 0, at_level + 1)
-        return x, (F, a, gt), log_e, at_level, ok, log_step, steps + 1
+                             jnp.where(failed, 0.5 * (log_e - log_ok), log_step))
+        fallback = jax.tree_util.tree_map(lambda new, old: jnp.where(passed, new, old),
+                                          (x, (a, gt, F[-1]), log_e, jnp.asarray(True)), fallback)
+        x = jnp.where(failed, x_ok, x)
+        a, gt, last = jax.tree_util.tree_map(lambda n, o: jnp.where(failed, o, n), (a, gt, F[-1]), soft_ok)
+        log_e = jnp.where(passed, jnp.maximum(log_e + log_step, log_last), jnp.where(failed, log_ok + log_step, log_e))
+        F = jnp.where(passed | failed, at(a, gt, last, log_e), F)
+        at_level = jnp.where(passed | failed, 0, at_level + 1)
+        return x, (F, a, gt), log_e, at_level, fallback, log_step, steps + 1, done
 
     def cond(state):
-        x, _, log_e, _, _, _, steps = state
-        return active & jnp.isfinite(log_e) & (steps < CONTINUATION_MAX_STEPS) & jnp.all(jnp.isfinite(x))
+        x, *_, steps, done = state
+        return active & ~done & (steps < CONTINUATION_MAX_STEPS) & jnp.all(jnp.isfinite(x))
 
     F0, a0, gt0 = _residual(fixed, x0, 1.0, CONTINUATION_LEVELS[0])
-    ok0 = (x0, (a0, gt0, F0[-1]), jnp.asarray(log_first), jnp.asarray(False))  # (no level converged)
-    init = (x0, (F0, a0, gt0), jnp.asarray(log_first), jnp.asarray(0), ok0, jnp.asarray(log_ratio),
-            jnp.asarray(0))
-    _, _, _, _, (x, (a, gt, _), _, _), _, steps = jax.lax.while_loop(cond, body, init)
+    fallback = (x0, (a0, gt0, F0[-1]), jnp.asarray(log_first), jnp.asarray(False))  # no level converged yet
+    init = (x0, (F0, a0, gt0), jnp.asarray(log_first), jnp.asarray(0), fallback, jnp.asarray(log_ratio),
+            jnp.asarray(0), jnp.asarray(False))
+    _, _, _, _, (x, (a, gt, _), _, converged), _, steps, _ = jax.lax.while_loop(cond, body, init)
     sg = jax.lax.stop_gradient
-    return sg(x), sg(gt < a), steps
+    return sg(x), sg(gt < a), steps, converged
 
 
 def edge_gap_scale(kappa, cell_size, contact_radius, radius):

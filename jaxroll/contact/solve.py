@@ -269,7 +269,7 @@ def solve_contact(
             search starts again from the smoothed edge's continuation
             (:func:`~jaxroll.contact.smoothing.continuation_solve`) and confirms its set. The same
             solution (to the tolerance), in a fraction of the steps there (SLS f = 1000 on a
-            half-space, 32 cells per radius: 1.1 s instead of 91 s); a larger program (about 3 s
+            half-space, 32 cells per radius: 1.1 s instead of 86-91 s); a larger program (about 3 s
             more to compile, measured on the default sphere point), so off by default.
     Never raises on a failed solve: the reason is in ``ContactSolution.result``.
 
@@ -359,12 +359,11 @@ def _solve_contact(compliance: WindowedCompliance, h, value, cell_area, mask0, w
 
         def phase(carry, again):
             mask, x, iters, _, robust, _, gave_up = carry
-            # where the continuation ends non-finite (it returns its last converged level, or its
-            # start) the search goes on from where it gave up (or from the start, if that was
-            # non-finite too)
-            x_c, contact, n_c = continuation_solve(fixed, x_cont, solver, precond, active=again & gave_up,
-                                                   robust=robust)
-            ok = again & jnp.all(jnp.isfinite(x_c))
+            # where no level of the continuation converged (or it ended non-finite) the search goes
+            # on from where it gave up (or from the start, if that was non-finite)
+            x_c, contact, n_c, converged = continuation_solve(fixed, x_cont, solver, precond,
+                                                              active=again & gave_up, robust=robust)
+            ok = again & converged & jnp.all(jnp.isfinite(x_c))
             resume = again & ~ok & jnp.all(jnp.isfinite(x))
             start = (jnp.where(ok, contact, jnp.where(resume, mask, mask0)),
                      jnp.where(ok, jnp.where(flat(contact, jnp.asarray(True)), x_c, 0.0),
