@@ -62,9 +62,9 @@ PARTNER_TOL_MAX = 1e-5
 
 #: Gap scales of :func:`continuation_solve`'s levels, in units of the system's gap scale ``g_s``
 #: (the gap that the mean pressure of the initial contact set closes over one cell), a factor 4
-#: apart where no level fails (a failed one is retried nearer the one before). At the first the soft minimum blurs the edge over several cells
-#: and the damped Newton iteration converges from a smooth start; each later level starts from the
-#: one before; at the last the cells where the gap condition dominates are the exact contact set to
+#: apart where no level fails (a failed one is retried nearer the one before). At the first the
+#: soft minimum blurs the edge over several cells and the damped Newton iteration converges from a
+#: smooth start; each later level starts from the one before; at the last the cells where the gap condition dominates are the exact contact set to
 #: within a few cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space,
 #: R = 2 cm, 100 N, 10 mm/s, 32 cells per radius; benchmarks/LOG.md 2026-12-08): 35 Newton steps
 #: over the six levels, then 3 active-set steps, 1.1 s, where the active-set search alone took 162
