@@ -62,14 +62,15 @@ PARTNER_TOL_MAX = 1e-5
 
 #: Gap scales of :func:`continuation_solve`'s levels, in units of the system's gap scale ``g_s``
 #: (the gap that the mean pressure of the initial contact set closes over one cell), a factor 4
-#: apart where no level fails (a failed one is retried nearer the one before). At the first the
-#: soft minimum blurs the edge over several cells and the damped Newton iteration converges from a
-#: smooth start; each later level starts from the one before; at the last the cells where the gap condition dominates are the exact contact set to
-#: within a few cells. Loss-dominated contact (SLS G0 = 3 MPa, tau = 0.25 s, f = 1000, half-space,
-#: R = 2 cm, 100 N, 10 mm/s, 32 cells per radius; benchmarks/LOG.md 2026-12-08): 35 Newton steps
-#: over the six levels, then 3 active-set steps, 1.1 s, where the active-set search alone took 162
-#: steps and 86-91 s (the same R_r to 1e-13). (From the search's first solve, as first built,
-#: starting at 1 g_s instead of 16 the first level took 51 Newton steps; at 4, 37.)
+#: apart where no level fails (a failed one is retried nearer the one before). At the first the soft
+#: minimum blurs the edge over several cells and the damped Newton iteration converges from a smooth
+#: start; each later level starts from the one before; at the last the cells where the gap condition
+#: dominates are the exact contact set to within a few cells. Loss-dominated contact (SLS G0 = 3
+#: MPa, tau = 0.25 s, f = 1000, half-space, R = 2 cm, 100 N, 10 mm/s, 32 cells per radius;
+#: benchmarks/LOG.md 2026-12-08): 35 Newton steps over the six levels, then 3 active-set steps, 1.1
+#: s, where the active-set search alone took 162 steps and 86-91 s (the same R_r to 1e-13). (From
+#: the search's first solve, as first built, starting at 1 g_s instead of 16 the first level took 51
+#: Newton steps; at 4, 37.)
 CONTINUATION_LEVELS = 16.0 * 0.25 ** np.arange(6.0)
 #: Scaled residual at which a level of :func:`continuation_solve` passes to the next (the exact
 #: search that follows decides the set to ``tol``).
