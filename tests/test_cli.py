@@ -58,6 +58,30 @@ def test_sweep_grid_axes(tmp_path):
     assert len(rows) == 2 + 6
 
 
+def test_a_full_model_curve_reports_per_block_of_speeds(tmp_path, capsys):
+    """``jaxroll curve`` with a full model (the default) runs its table in blocks of speeds and
+    reports after each (``rolling_resistance_grid(progress=True)``): a line per block on stderr,
+    and the values of the library's one-shot table (the full 2D cylinder: each block's first speed
+    starts cold instead of from the previous speed, the same contact problems: equal to the
+    solver's tolerance, 1e-9 allowed, and to the CSV's 8 digits). ``--quiet`` runs it in one piece."""
+    argv = ["curve", "--geometry", "cylinder", "--loads", "2000,5000", "--vmin", "1e-3", "--n", "3"]
+    assert main([*argv, "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err
+    assert "per block of speeds" in err and "3/3 speeds" in err, err
+    mat, layer = jr.StandardLinearSolid(3e6, 0.25, 1.0), jr.Layer(H=0.03, rho=1000.0)
+    speeds = np.logspace(-3.0, 0.0, 3)
+    ref = jr.rolling_resistance_grid(mat, layer, radius=0.02, loads=[2e3, 5e3], speeds=speeds, geometry="cylinder")
+    rows = _rows(tmp_path / "curve.csv")[2:]
+    assert len(rows) == 6
+    for row in rows:
+        V, P, val = (float(x) for x in row[:3])
+        i, j = int(np.argmin(abs(speeds - V))), [2e3, 5e3].index(P)
+        assert val == pytest.approx(float(ref.value[i, j]), rel=1e-7)
+        assert row[3] == "1"
+    assert main([*argv, "--quiet", "--out", str(tmp_path / "quiet")]) == 0
+    assert "speeds," not in capsys.readouterr().err
+
+
 def test_sweep_outside_validity_writes_valid_0_and_warns(tmp_path, capsys):
     # docs/api.md's sweep example with the direct method: gamma = r_c/H = 3.1 and 0.91 at 100 N,
     # outside both pressure models, so every point is flagged (it used to be written silently)

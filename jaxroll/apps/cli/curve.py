@@ -25,13 +25,18 @@ def run(args) -> int:
     layer = jr.Layer(H=thickness(args.H), rho=args.rho)
     speeds = np.logspace(np.log10(args.vmin), np.log10(args.vmax), args.n)
     loads = np.sort(np.asarray(args.loads))
+    method = method_from_args(args)
+    # a full model's table reports per block of speeds (a loss-dominated material on its grid takes
+    # minutes); the approximations take about a second and run in one piece
+    blocks = args.progress and isinstance(method, jr.Full)
     if args.progress:
         print(f"curve: {len(speeds)} speeds x {len(loads)} loads, method {method_name(args)} (one compiled "
-              f"program: grid sizing, compilation, then every point)", file=sys.stderr, flush=True)
+              f"program: grid sizing, compilation, then every point{', per block of speeds' if blocks else ''})",
+              file=sys.stderr, flush=True)
     with warnings.catch_warnings():  # reported below, per reason, in CLI terms
         warnings.simplefilter("ignore", jr.ValidityWarning)
         res = jr.rolling_resistance_grid(mat, layer, radius=args.radius, loads=loads, speeds=speeds,
-                                         geometry=args.geometry, method=method_from_args(args), throw=False)
+                                         geometry=args.geometry, method=method, throw=False, progress=blocks)
     values, codes = np.asarray(res.value).T, np.asarray(res.result).T  # (loads, speeds)
     unit = Geometry(args.geometry).load_unit
     P_, V_ = (a.ravel() for a in np.meshgrid(loads, speeds, indexing="ij"))
