@@ -160,7 +160,7 @@ def test_fine_sphere_grid_converges_on_loss_dominated_material(f, V, cells):
     (v, t, code, *_), (vf, tf, code_f, residual_f, steps_f) = out[None], out[cells]
     assert (code, code_f) == ("successful", "successful"), out
     assert residual_f <= 1e-7, out  # the solver's bound: 1e3 tol (tol = 1e-10)
-    assert steps_f <= 45, out
+    assert steps_f <= 45, out  # the continuation from the Hertz start: 34 / 32 (first build 123 / 83)
     assert abs(v / vf - 1) <= t + tf, out
 
 
